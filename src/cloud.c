@@ -1,0 +1,454 @@
+/* SPDX-License-Identifier: MIT
+ * cloud.c -- one input cloud onto the pre-shape space (SPEC 1-2, Sec. 3):
+ * validation, thinning, outlier culling, resampling, pre-shape mapping
+ * (Eq. 2), feature points by D_pca (Sec. 4) and the PCA frame.
+ */
+#include "pkss_internal.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define PKSS_KNN_K 12
+
+void pkss_cloud_destroy(pkss_cloud *cloud)
+{
+    if (!cloud)
+        return;
+    pkss__free(cloud->pre);
+    pkss__free(cloud->feat);
+    pkss__kdtree_free(cloud->tree);
+    pkss__kdtree_free(cloud->tree_coarse);
+    pkss__free(cloud);
+}
+
+/* Mean and covariance eigen-decomposition of n points. */
+static void covariance(const double *xyz, size_t n, double *mean, double *w,
+                       double *V)
+{
+    double m[3] = {0, 0, 0};
+    for (size_t i = 0; i < n; ++i)
+        for (int d = 0; d < 3; ++d)
+            m[d] += xyz[3 * i + d];
+    for (int d = 0; d < 3; ++d)
+        m[d] /= (double)n;
+    double C[9] = {0};
+    for (size_t i = 0; i < n; ++i) {
+        double x = xyz[3 * i] - m[0], y = xyz[3 * i + 1] - m[1],
+               z = xyz[3 * i + 2] - m[2];
+        C[0] += x * x; C[1] += x * y; C[2] += x * z;
+        C[4] += y * y; C[5] += y * z; C[8] += z * z;
+    }
+    C[3] = C[1]; C[6] = C[2]; C[7] = C[5];
+    for (int i = 0; i < 9; ++i)
+        C[i] /= (double)n;
+    pkss__eig_sym3(C, w, V);
+    if (mean)
+        memcpy(mean, m, sizeof m);
+}
+
+/* SPEC 1: identical, collinear or coplanar "to the point that PCA or the
+ * cell partition is undefined": relative variance below 1e-12 (a thickness
+ * of 1e-6 of the extent). */
+static pkss_status check_shape(pkss_context *ctx, const double *xyz, size_t n,
+                               const char *which, const char *stage)
+{
+    double w[3], V[9];
+    covariance(xyz, n, NULL, w, V);
+    PKSS_RETURN_IF(!(w[0] > 0.0), ctx, PKSS_ERR_DEGENERATE,
+                   "%s cloud: all %zu points%s are identical", which, n, stage);
+    PKSS_RETURN_IF(w[1] <= 1e-12 * w[0], ctx, PKSS_ERR_DEGENERATE,
+                   "%s cloud: the %zu points%s are collinear", which, n, stage);
+    PKSS_RETURN_IF(w[2] <= 1e-12 * w[0], ctx, PKSS_ERR_DEGENERATE,
+                   "%s cloud: the %zu points%s are coplanar (no 3-D shape)",
+                   which, n, stage);
+    return PKSS_OK;
+}
+
+/* SPEC 1: validation. Copies the finite points into *out. */
+static pkss_status validate(pkss_context *ctx, const double *xyz, size_t n,
+                            const char *which, double **out, size_t *n_out,
+                            uint64_t *nonfinite)
+{
+    const pkss__params *p = &ctx->params;
+    PKSS_RETURN_IF(!xyz, ctx, PKSS_ERR_NULL_ARGUMENT,
+                   "%s points pointer is NULL", which);
+    PKSS_RETURN_IF(n == 0, ctx, PKSS_ERR_EMPTY_INPUT,
+                   "%s cloud is empty (n = 0)", which);
+    PKSS_RETURN_IF(n > (SIZE_MAX / 3 / sizeof(double)) || n > 0x7fffffffu,
+                   ctx, PKSS_ERR_INVALID_ARGUMENT,
+                   "%s cloud: n = %zu points is too large", which, n);
+    size_t bad = 0, first_bad = SIZE_MAX;
+    double maxabs = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+        const double *q = xyz + 3 * i;
+        if (!isfinite(q[0]) || !isfinite(q[1]) || !isfinite(q[2])) {
+            if (first_bad == SIZE_MAX)
+                first_bad = i;
+            ++bad;
+            continue;
+        }
+        for (int d = 0; d < 3; ++d)
+            if (fabs(q[d]) > maxabs)
+                maxabs = fabs(q[d]);
+    }
+    if (bad && !p->drop_nonfinite) {
+        const double *q = xyz + 3 * first_bad;
+        return pkss__fail(ctx, PKSS_ERR_NONFINITE,
+                          "%s point %zu has a non-finite coordinate (%g, %g, %g); "
+                          "%zu such points in all (set drop_nonfinite to drop them)",
+                          which, first_bad, q[0], q[1], q[2], bad);
+    }
+    *nonfinite = bad;
+    size_t finite = n - bad;
+    PKSS_RETURN_IF(finite < (size_t)p->min_points, ctx, PKSS_ERR_TOO_FEW_POINTS,
+                   "%s cloud has %zu finite points; at least %d are needed "
+                   "(min_points)",
+                   which, finite, p->min_points);
+    /* Squares of 1e150 overflow double; far below that float32 work after
+     * centring and normalising is safe. */
+    PKSS_RETURN_IF(maxabs > 1e150, ctx, PKSS_ERR_OUT_OF_RANGE,
+                   "%s cloud: coordinate magnitude %g is too large (limit 1e150)",
+                   which, maxabs);
+    double *pts = pkss__malloc(finite * 3 * sizeof(double));
+    PKSS_RETURN_IF(!pts, ctx, PKSS_ERR_OUT_OF_MEMORY,
+                   "out of memory copying %zu %s points", finite, which);
+    size_t k = 0;
+    for (size_t i = 0; i < n; ++i) {
+        const double *q = xyz + 3 * i;
+        if (!isfinite(q[0]) || !isfinite(q[1]) || !isfinite(q[2]))
+            continue;
+        memcpy(pts + 3 * k++, q, 3 * sizeof(double));
+    }
+    /* Extent too small for the magnitude (e.g. georeferenced coordinates
+     * with micrometre spread): the shape is lost in rounding. */
+    double w[3], V[9], mean[3];
+    covariance(pts, finite, mean, w, V);
+    double spread = sqrt(w[0] > 0 ? w[0] : 0.0);
+    if (!(spread > 1e-9 * maxabs) && w[0] > 0) {
+        pkss__free(pts);
+        return pkss__fail(ctx, PKSS_ERR_DEGENERATE,
+                          "%s cloud: extent %g is below the precision of its "
+                          "coordinates (magnitude %g)",
+                          which, spread, maxabs);
+    }
+    pkss_status st = check_shape(ctx, pts, finite, which, "");
+    if (st != PKSS_OK) {
+        pkss__free(pts);
+        return st;
+    }
+    *out = pts;
+    *n_out = finite;
+    return PKSS_OK;
+}
+
+/* Compacts pts by keep[], returning the new count. */
+static size_t compact(double *pts, size_t n, const unsigned char *keep)
+{
+    size_t k = 0;
+    for (size_t i = 0; i < n; ++i)
+        if (keep[i]) {
+            if (k != i)
+                memmove(pts + 3 * k, pts + 3 * i, 3 * sizeof(double));
+            ++k;
+        }
+    return k;
+}
+
+typedef struct dsort {
+    double d;
+    uint32_t i;
+} dsort;
+
+static int cmp_desc(const void *a, const void *b)
+{
+    const dsort *x = a, *y = b;
+    if (x->d > y->d) return -1;
+    if (x->d < y->d) return 1;
+    return (x->i > y->i) - (x->i < y->i);
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* Sec. 4: D_pca(p) = distance of p to the least-squares plane of its 12
+ * nearest neighbours (self excluded); P' = the top feature_frac by D_pca.
+ * Also returns the median nearest-neighbour spacing. */
+static pkss_status features_and_spacing(pkss_cloud *c, double frac)
+{
+    size_t m = c->m, k = m - 1 < PKSS_KNN_K ? m - 1 : PKSS_KNN_K;
+    uint32_t *idx = pkss__malloc(m * k * sizeof(uint32_t));
+    double *d2 = pkss__malloc(m * k * sizeof(double));
+    dsort *ds = pkss__malloc(m * sizeof(dsort));
+    double *nn = pkss__malloc(m * sizeof(double));
+    if (!idx || !d2 || !ds || !nn) {
+        pkss__free(idx); pkss__free(d2); pkss__free(ds); pkss__free(nn);
+        return PKSS_ERR_OUT_OF_MEMORY;
+    }
+    pkss__knn_all(c->tree, c->pre, m, k, idx, d2);
+    for (size_t i = 0; i < m; ++i) {
+        nn[i] = sqrt(d2[k * i]);
+        double nb[3 * PKSS_KNN_K];
+        for (size_t j = 0; j < k; ++j)
+            memcpy(nb + 3 * j, c->pre + 3 * idx[k * i + j], 3 * sizeof(double));
+        double w[3], V[9], mean[3];
+        covariance(nb, k, mean, w, V);
+        const double *p = c->pre + 3 * i;
+        /* normal = eigenvector of the smallest eigenvalue (column 2) */
+        double dist = (p[0] - mean[0]) * V[2] + (p[1] - mean[1]) * V[5] +
+                      (p[2] - mean[2]) * V[8];
+        ds[i].d = fabs(dist);
+        ds[i].i = (uint32_t)i;
+    }
+    qsort(nn, m, sizeof(double), cmp_double);
+    c->spacing = nn[m / 2];
+    qsort(ds, m, sizeof(dsort), cmp_desc);
+    size_t nf = (size_t)ceil(frac * (double)m);
+    if (nf < 1) nf = 1;
+    if (nf > m) nf = m;
+    c->feat = pkss__malloc(nf * sizeof(uint32_t));
+    if (!c->feat) {
+        pkss__free(idx); pkss__free(d2); pkss__free(ds); pkss__free(nn);
+        return PKSS_ERR_OUT_OF_MEMORY;
+    }
+    for (size_t i = 0; i < nf; ++i)
+        c->feat[i] = ds[i].i;
+    /* keep feature order by point index: deterministic and cache friendly */
+    for (size_t i = 1; i < nf; ++i) {
+        uint32_t v = c->feat[i];
+        size_t j = i;
+        while (j > 0 && c->feat[j - 1] > v) {
+            c->feat[j] = c->feat[j - 1];
+            --j;
+        }
+        c->feat[j] = v;
+    }
+    c->n_feat = nf;
+    pkss__free(idx); pkss__free(d2); pkss__free(ds); pkss__free(nn);
+    return PKSS_OK;
+}
+
+/* The coarse refinement level: the first quarter of the FPS-ordered points
+ * (all of them for small clouds), its kd-tree and NN spacing. */
+static pkss_status coarse_level(pkss_cloud *c)
+{
+    c->m_coarse = c->m >= 1200 ? c->m / 4 : c->m;
+    pkss_status st = pkss__kdtree_build(c->pre, c->m_coarse, &c->tree_coarse);
+    if (st != PKSS_OK)
+        return st;
+    double *nn = pkss__malloc(c->m_coarse * sizeof(double));
+    if (!nn)
+        return PKSS_ERR_OUT_OF_MEMORY;
+    for (size_t i = 0; i < c->m_coarse; ++i) {
+        uint32_t j;
+        double d2 = 0.0;
+        pkss__kdtree_knn(c->tree_coarse, c->pre + 3 * i, 1, i, &j, &d2);
+        nn[i] = sqrt(d2);
+    }
+    qsort(nn, c->m_coarse, sizeof(double), cmp_double);
+    c->spacing_coarse = nn[c->m_coarse / 2];
+    pkss__free(nn);
+    return PKSS_OK;
+}
+
+/* PCA frame of the pre-shape cloud (SPEC 2.7, Eq. 11): axes by decreasing
+ * variance; the first two signs chosen so that more points lie on the
+ * positive side, the third = u x v (right-handed). Half-extents per axis. */
+static void pca_frame(pkss_cloud *c)
+{
+    double w[3], V[9];
+    covariance(c->pre, c->m, NULL, w, V);
+    for (int a = 0; a < 2; ++a) {
+        long long balance = 0;
+        for (size_t i = 0; i < c->m; ++i) {
+            const double *p = c->pre + 3 * i;
+            double proj = p[0] * V[a] + p[1] * V[3 + a] + p[2] * V[6 + a];
+            balance += proj > 0 ? 1 : (proj < 0 ? -1 : 0);
+        }
+        if (balance < 0)
+            for (int r = 0; r < 3; ++r)
+                V[3 * r + a] = -V[3 * r + a];
+    }
+    V[2] = V[3] * V[7] - V[6] * V[4];
+    V[5] = V[6] * V[1] - V[0] * V[7];
+    V[8] = V[0] * V[4] - V[3] * V[1];
+    memcpy(c->axes, V, sizeof V);
+    for (int a = 0; a < 3; ++a) {
+        double lo = DBL_MAX, hi = -DBL_MAX;
+        for (size_t i = 0; i < c->m; ++i) {
+            const double *p = c->pre + 3 * i;
+            double proj = p[0] * V[a] + p[1] * V[3 + a] + p[2] * V[6 + a];
+            if (proj < lo) lo = proj;
+            if (proj > hi) hi = proj;
+        }
+        c->half_extent[a] = 0.5 * (hi - lo);
+    }
+}
+
+pkss_status pkss__cloud_build(pkss_context *ctx, const double *xyz, size_t n,
+                              const char *which, pkss_cloud **out)
+{
+    const pkss__params *p = &ctx->params;
+    *out = NULL;
+    double t0 = pkss__now();
+    pkss_cloud *c = pkss__calloc(1, sizeof *c);
+    PKSS_RETURN_IF(!c, ctx, PKSS_ERR_OUT_OF_MEMORY, "out of memory");
+    c->counts.input = n;
+    double *pts = NULL;
+    size_t np = 0;
+    pkss_status st = validate(ctx, xyz, n, which, &pts, &np, &c->counts.nonfinite);
+    if (st != PKSS_OK) {
+        pkss_cloud_destroy(c);
+        return st;
+    }
+    double t1 = pkss__now();
+    c->validate_seconds = t1 - t0;
+    unsigned char *keep = NULL;
+    uint32_t *sel = NULL;
+
+    /* SPEC 2.1: thin huge inputs first. */
+    if (np > (size_t)p->max_raw_points) {
+        double *thin = NULL;
+        size_t nt = 0;
+        st = pkss__thin_voxel(pts, np, (size_t)p->max_raw_points,
+                              (uint64_t)p->seed, &thin, &nt);
+        if (st != PKSS_OK)
+            goto oom;
+        pkss__free(pts);
+        pts = thin;
+        np = nt;
+    }
+    c->counts.thinned = np;
+
+    /* SPEC 2.2-2.3: outliers go before resampling (FPS would promote them). */
+    keep = pkss__malloc(np ? np : 1);
+    if (!keep)
+        goto oom;
+    if (p->cull_mutual && np > PKSS_KNN_K + 1) {
+        st = pkss__cull_mutual(pts, np, PKSS_KNN_K, keep);
+        if (st != PKSS_OK)
+            goto oom;
+        np = compact(pts, np, keep);
+    }
+    c->counts.after_mutual = np;
+    if (p->cull_stat && np > PKSS_KNN_K + 1) {
+        st = pkss__cull_stat(pts, np, keep);
+        if (st != PKSS_OK)
+            goto oom;
+        np = compact(pts, np, keep);
+    }
+    c->counts.after_stat = np;
+    if (np < (size_t)p->min_points) {
+        st = pkss__fail(ctx, PKSS_ERR_TOO_FEW_POINTS,
+                        "%s cloud: only %zu points survive outlier culling; at "
+                        "least %d are needed (min_points; or disable cull_mutual/cull_stat)",
+                        which, np, p->min_points);
+        goto fail;
+    }
+
+    /* SPEC 2.4: farthest-point resampling to m points. */
+    size_t m = 0;
+    sel = pkss__malloc(((size_t)p->points < np ? (size_t)p->points : np) * sizeof(uint32_t));
+    if (!sel)
+        goto oom;
+    st = pkss__fps(pts, np, (size_t)p->points, sel, &m);
+    if (st != PKSS_OK)
+        goto oom;
+    c->m = m;
+    c->pre = pkss__malloc(m * 3 * sizeof(double));
+    if (!c->pre)
+        goto oom;
+    for (size_t i = 0; i < m; ++i)
+        memcpy(c->pre + 3 * i, pts + 3 * (size_t)sel[i], 3 * sizeof(double));
+    c->counts.resampled = m;
+    st = check_shape(ctx, c->pre, m, which, " after resampling");
+    if (st != PKSS_OK)
+        goto fail;
+
+    /* SPEC 2.5, Eq. 2: centre and divide by the RMS radius
+     * sigma = sqrt(sum |x - mean|^2 / m). */
+    double mean[3] = {0, 0, 0}, ss = 0.0;
+    for (size_t i = 0; i < m; ++i)
+        for (int d = 0; d < 3; ++d)
+            mean[d] += c->pre[3 * i + d];
+    for (int d = 0; d < 3; ++d)
+        mean[d] /= (double)m;
+    for (size_t i = 0; i < m; ++i)
+        for (int d = 0; d < 3; ++d) {
+            double v = c->pre[3 * i + d] - mean[d];
+            ss += v * v;
+        }
+    c->sigma = sqrt(ss / (double)m);
+    memcpy(c->centroid, mean, sizeof mean);
+    for (size_t i = 0; i < m; ++i)
+        for (int d = 0; d < 3; ++d)
+            c->pre[3 * i + d] = (c->pre[3 * i + d] - mean[d]) / c->sigma;
+
+    st = pkss__kdtree_build(c->pre, m, &c->tree);
+    if (st != PKSS_OK)
+        goto oom;
+    st = features_and_spacing(c, p->feature_frac);
+    if (st != PKSS_OK)
+        goto oom;
+    c->counts.features = p->use_features ? c->n_feat : 0;
+    st = coarse_level(c);
+    if (st != PKSS_OK)
+        goto oom;
+    pca_frame(c);
+    c->prep_seconds = pkss__now() - t1;
+    pkss__free(pts);
+    pkss__free(keep);
+    pkss__free(sel);
+    *out = c;
+    return PKSS_OK;
+
+oom:
+    st = pkss__fail(ctx, PKSS_ERR_OUT_OF_MEMORY,
+                    "out of memory pre-processing the %s cloud (%zu points)",
+                    which, np);
+fail:
+    pkss__free(pts);
+    pkss__free(keep);
+    pkss__free(sel);
+    pkss_cloud_destroy(c);
+    return st;
+}
+
+/* ------------------------------------------------------------ public */
+pkss_status pkss_cloud_create(pkss_context *ctx, const double *xyz, size_t n,
+                              pkss_cloud **out)
+{
+    if (out)
+        *out = NULL;
+    PKSS_RETURN_IF(!ctx, NULL, PKSS_ERR_NULL_ARGUMENT, "ctx is NULL");
+    pkss__clear_error(ctx);
+    PKSS_RETURN_IF(!out, ctx, PKSS_ERR_NULL_ARGUMENT, "out is NULL");
+    return pkss__cloud_build(ctx, xyz, n, "input", out);
+}
+
+pkss_status pkss_cloud_counts(const pkss_cloud *cloud, pkss_counts *out)
+{
+    if (!cloud || !out)
+        return PKSS_ERR_NULL_ARGUMENT;
+    *out = cloud->counts;
+    return PKSS_OK;
+}
+
+size_t pkss_cloud_size(const pkss_cloud *cloud) { return cloud ? cloud->m : 0; }
+
+pkss_status pkss_cloud_points(const pkss_cloud *cloud, double *xyz,
+                              size_t capacity)
+{
+    if (!cloud || !xyz)
+        return PKSS_ERR_NULL_ARGUMENT;
+    if (capacity < cloud->m)
+        return PKSS_ERR_INVALID_ARGUMENT;
+    for (size_t i = 0; i < cloud->m; ++i)
+        for (int d = 0; d < 3; ++d)
+            xyz[3 * i + d] = cloud->pre[3 * i + d] * cloud->sigma + cloud->centroid[d];
+    return PKSS_OK;
+}

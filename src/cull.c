@@ -1,0 +1,254 @@
+/* SPDX-License-Identifier: MIT
+ * cull.c -- outlier culling before resampling (SPEC 2.2, 2.3).
+ *
+ * Both functions write every entry of keep[] (1 keep, 0 outlier). The
+ * pipeline runs pkss__cull_mutual, compacts the survivors, then runs
+ * pkss__cull_stat on them.
+ *
+ * Mutual kNN (Eq. 3, SPEC 2.2): a point is an outlier when none of its k
+ * nearest neighbours has it among its own k nearest.
+ *
+ * Density-aware statistical filter (SPEC 2.3), k = 12, neighbours exclude
+ * the point itself:
+ *   d_i   mean distance to the 12 nearest neighbours;
+ *   s_i   median of d_j over those 12 neighbours j (the local scale);
+ *   h_i   distance of the point from the least-squares plane of its 12
+ *         neighbours;
+ *   rho_i 12 / (4/3 pi r12^3), r12 = distance to the 12th neighbour;
+ *   N/V   points per volume of the 0.5 %-99.5 % per-axis quantile box.
+ *   outlier <=> (d_i > 2 s_i and h_i > 1.5 s_i) or rho_i < 0.1 N/V.
+ * The first clause catches a point that stands off a surface (far from its
+ * neighbours compared with how far they are from theirs, and off their
+ * plane): it judges against local context, so sparse far LiDAR returns
+ * whose neighbours are equally sparse stay. The second catches points in
+ * space that is emptier than a tenth of the cloud's mean fill, i.e. box
+ * outliers whose neighbours are other outliers.
+ * Guards beyond the SPEC text: a quantile-box side shorter than
+ * STAT_MIN_SIDE times the longest one is lengthened to it, so a nearly flat
+ * cloud (a wall, a planar scan) does not get a huge N/V that would flag all
+ * of it; a point whose neighbours have s_i == 0 (a stack of duplicates) is
+ * not judged by the first clause.
+ */
+#include "pkss_internal.h"
+
+#include <math.h>
+#include <string.h>
+
+#define STAT_K 12
+#define STAT_FAR 2.0        /* d_i > STAT_FAR * s_i */
+#define STAT_OFF_PLANE 1.5  /* h_i > STAT_OFF_PLANE * s_i */
+#define STAT_SPARSE 0.1     /* rho_i < STAT_SPARSE * N / V */
+#define STAT_QUANTILE 0.005 /* box from the 0.5 % to the 99.5 % quantile */
+#define STAT_MIN_SIDE 0.05  /* box side >= this * longest side */
+#define STAT_PI 3.14159265358979323846
+
+/* ------------------------------------------------------------ mutual */
+
+pkss_status pkss__cull_mutual(const double *xyz, size_t n, size_t k,
+                              unsigned char *keep)
+{
+    if (!xyz || !keep)
+        return PKSS_ERR_NULL_ARGUMENT;
+    if (k == 0)
+        return PKSS_ERR_INVALID_ARGUMENT;
+    if (n == 0)
+        return PKSS_OK;
+    memset(keep, 1, n);
+    if (n <= k + 1)
+        return PKSS_OK; /* every point is every other's neighbour */
+
+    pkss__kdtree *tree = NULL;
+    uint32_t *idx = pkss__malloc(n * k * sizeof(uint32_t));
+    double *d2 = pkss__malloc(n * k * sizeof(double));
+    pkss_status st = PKSS_ERR_OUT_OF_MEMORY;
+    if (!idx || !d2)
+        goto cleanup;
+    st = pkss__kdtree_build(xyz, n, &tree);
+    if (st != PKSS_OK)
+        goto cleanup;
+    st = pkss__knn_all(tree, xyz, n, k, idx, d2);
+    if (st != PKSS_OK)
+        goto cleanup;
+    for (size_t i = 0; i < n; ++i) {
+        const uint32_t *nb = idx + k * i;
+        int mutual = 0;
+        for (size_t a = 0; a < k && !mutual; ++a) {
+            const uint32_t *back = idx + k * (size_t)nb[a];
+            for (size_t b = 0; b < k; ++b)
+                if (back[b] == (uint32_t)i) {
+                    mutual = 1;
+                    break;
+                }
+        }
+        keep[i] = (unsigned char)mutual;
+    }
+
+cleanup:
+    pkss__kdtree_free(tree);
+    pkss__free(idx);
+    pkss__free(d2);
+    return st;
+}
+
+/* -------------------------------------------------------- statistical */
+
+/* Value of rank r (0-based) in v[0, n); reorders v (Hoare quickselect). */
+static double select_value(double *v, size_t n, size_t r)
+{
+    size_t lo = 0, hi = n - 1;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        double a = v[lo], b = v[mid], c = v[hi];
+        double pivot = (a < b) ? ((b < c) ? b : (a < c ? c : a))
+                               : ((a < c) ? a : (b < c ? c : b));
+        size_t i = lo, j = hi;
+        for (;;) {
+            while (v[i] < pivot)
+                ++i;
+            while (v[j] > pivot)
+                --j;
+            if (i >= j)
+                break;
+            double t = v[i];
+            v[i] = v[j];
+            v[j] = t;
+            ++i;
+            --j;
+        }
+        if (i == j) { /* v[i] == pivot, in its final place */
+            if (r == i)
+                return v[i];
+            if (r < i)
+                hi = i - 1;
+            else
+                lo = i + 1;
+        } else if (r <= j) {
+            hi = j;
+        } else {
+            lo = j + 1;
+        }
+    }
+    return v[r];
+}
+
+/* Points per unit volume of the per-axis quantile box (0: undefined). */
+static double background_density(const double *xyz, size_t n, double *buf)
+{
+    double side[3], longest = 0.0;
+    size_t rlo = (size_t)floor(STAT_QUANTILE * (double)(n - 1));
+    size_t rhi = (size_t)ceil((1.0 - STAT_QUANTILE) * (double)(n - 1));
+    for (int d = 0; d < 3; ++d) {
+        for (size_t i = 0; i < n; ++i)
+            buf[i] = xyz[3 * i + d];
+        double qlo = select_value(buf, n, rlo);
+        double qhi = select_value(buf, n, rhi);
+        side[d] = qhi - qlo;
+        if (side[d] > longest)
+            longest = side[d];
+    }
+    if (!(longest > 0.0))
+        return 0.0;
+    double vol = 1.0;
+    for (int d = 0; d < 3; ++d)
+        vol *= side[d] > STAT_MIN_SIDE * longest ? side[d]
+                                                 : STAT_MIN_SIDE * longest;
+    return (double)n / vol;
+}
+
+/* Distance of p from the least-squares plane of the m points nb. */
+static double plane_distance(const double *xyz, const uint32_t *nb, size_t m,
+                             const double *p)
+{
+    double c[3] = {0.0, 0.0, 0.0};
+    for (size_t a = 0; a < m; ++a)
+        for (int d = 0; d < 3; ++d)
+            c[d] += xyz[3 * (size_t)nb[a] + d];
+    for (int d = 0; d < 3; ++d)
+        c[d] /= (double)m;
+    double S[9] = {0};
+    for (size_t a = 0; a < m; ++a) {
+        const double *q = xyz + 3 * (size_t)nb[a];
+        double e[3] = {q[0] - c[0], q[1] - c[1], q[2] - c[2]};
+        for (int r = 0; r < 3; ++r)
+            for (int s = r; s < 3; ++s)
+                S[3 * r + s] += e[r] * e[s];
+    }
+    S[3] = S[1];
+    S[6] = S[2];
+    S[7] = S[5];
+    double w[3], V[9];
+    pkss__eig_sym3(S, w, V);
+    /* normal: eigenvector of the smallest eigenvalue, column 2 */
+    double h = (p[0] - c[0]) * V[2] + (p[1] - c[1]) * V[5] +
+               (p[2] - c[2]) * V[8];
+    return fabs(h);
+}
+
+pkss_status pkss__cull_stat(const double *xyz, size_t n, unsigned char *keep)
+{
+    const size_t k = STAT_K;
+    if (!xyz || !keep)
+        return PKSS_ERR_NULL_ARGUMENT;
+    if (n == 0)
+        return PKSS_OK;
+    memset(keep, 1, n);
+    if (n <= 2 * k)
+        return PKSS_OK; /* too few points to tell context from outlier */
+
+    pkss__kdtree *tree = NULL;
+    uint32_t *idx = pkss__malloc(n * k * sizeof(uint32_t));
+    double *d2 = pkss__malloc(n * k * sizeof(double));
+    double *dm = pkss__malloc(n * sizeof(double));
+    pkss_status st = PKSS_ERR_OUT_OF_MEMORY;
+    if (!idx || !d2 || !dm)
+        goto cleanup;
+    st = pkss__kdtree_build(xyz, n, &tree);
+    if (st != PKSS_OK)
+        goto cleanup;
+    st = pkss__knn_all(tree, xyz, n, k, idx, d2);
+    if (st != PKSS_OK)
+        goto cleanup;
+
+    double nv = background_density(xyz, n, dm);
+    /* rho_i < STAT_SPARSE * N/V  <=>  r12^3 > 12 / (4/3 pi STAT_SPARSE N/V) */
+    double r3_max = nv > 0.0 ? (double)k / (4.0 / 3.0 * STAT_PI * STAT_SPARSE * nv)
+                             : HUGE_VAL;
+
+    for (size_t i = 0; i < n; ++i) {
+        double sum = 0.0;
+        for (size_t a = 0; a < k; ++a)
+            sum += sqrt(d2[k * i + a]);
+        dm[i] = sum / (double)k;
+    }
+    for (size_t i = 0; i < n; ++i) {
+        const uint32_t *nb = idx + k * i;
+        double r = sqrt(d2[k * i + k - 1]);
+        if (r * r * r > r3_max) {
+            keep[i] = 0;
+            continue;
+        }
+        /* median of the neighbours' mean distances */
+        double v[STAT_K];
+        for (size_t a = 0; a < k; ++a) {
+            double x = dm[nb[a]];
+            size_t b = a;
+            while (b > 0 && v[b - 1] > x) {
+                v[b] = v[b - 1];
+                --b;
+            }
+            v[b] = x;
+        }
+        double s = 0.5 * (v[k / 2 - 1] + v[k / 2]);
+        if (!(s > 0.0) || !(dm[i] > STAT_FAR * s))
+            continue;
+        if (plane_distance(xyz, nb, k, xyz + 3 * i) > STAT_OFF_PLANE * s)
+            keep[i] = 0;
+    }
+
+cleanup:
+    pkss__kdtree_free(tree);
+    pkss__free(idx);
+    pkss__free(d2);
+    pkss__free(dm);
+    return st;
+}

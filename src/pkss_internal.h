@@ -1,0 +1,272 @@
+/* SPDX-License-Identifier: MIT
+ * pkss_internal.h -- private declarations shared by the modules in src/.
+ * Nothing here is part of the ABI. Non-static internals are prefixed pkss__.
+ */
+#ifndef PKSS_INTERNAL_H
+#define PKSS_INTERNAL_H
+
+#include "pkss.h"
+
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#define PKSS_DETAIL_SIZE 4096
+
+/* ---------------------------------------------------------------- params */
+typedef struct pkss__params {
+    int points;          /* m */
+    int rotation_steps;  /* n */
+    int offset_steps;    /* N */
+    int cell_steps;      /* azimuth bins */
+    int cull_mutual;     /* 0/1 */
+    int cull_stat;       /* 0/1 */
+    int use_features;    /* 0/1 */
+    double feature_frac;
+    int pca_prealign;    /* 0/1 */
+    int rotation_set;    /* pkss_rotation_set, resolved */
+    int rotation_count;
+    int top_k;
+    int refine;          /* 0/1 */
+    long long seed;
+    long long max_raw_points;
+    int drop_nonfinite;  /* 0/1 */
+    int min_points;
+    int backend;         /* pkss_backend as set (AUTO allowed) */
+} pkss__params;
+
+void pkss__params_default(pkss__params *p);
+
+/* ------------------------------------------------------------- context */
+struct pkss__device; /* OpenCL state, device.c / evaluate_cl.c */
+
+struct pkss_context {
+    pkss__params params;
+    char *device_request;      /* PKSS_PARAM_DEVICE string, or NULL */
+    char detail[PKSS_DETAIL_SIZE];
+    char device_name[PKSS_NAME_SIZE];
+    int prepared;              /* prepare() succeeded for current settings */
+    int backend_in_use;        /* pkss_backend resolved by prepare() */
+    struct pkss__device *dev;  /* NULL for the reference backend */
+};
+
+/* Records a formatted detail in ctx (if not NULL) and returns status. */
+pkss_status pkss__fail(pkss_context *ctx, pkss_status status, const char *fmt,
+                       ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+void pkss__clear_error(pkss_context *ctx);
+
+#define PKSS_RETURN_IF(cond, ctx, status, ...)                                 \
+    do {                                                                       \
+        if (cond)                                                              \
+            return pkss__fail((ctx), (status), __VA_ARGS__);                   \
+    } while (0)
+
+#define PKSS_FORWARD(expr)                                                     \
+    do {                                                                       \
+        pkss_status pkss__st = (expr);                                         \
+        if (pkss__st != PKSS_OK)                                               \
+            return pkss__st;                                                   \
+    } while (0)
+
+/* --------------------------------------------------------- allocation */
+/* All allocation goes through these so a test can inject failures. */
+void *pkss__malloc(size_t size);
+void *pkss__calloc(size_t count, size_t size);
+void *pkss__realloc(void *ptr, size_t size);
+void pkss__free(void *ptr);
+/* Test hook: fail every allocation after `budget` more succeed; -1 = never. */
+PKSS_API void pkss__test_set_alloc_budget(long long budget);
+
+/* --------------------------------------------------------------- time */
+double pkss__now(void);
+
+/* ------------------------------------------------------------- kd-tree */
+/* A compact static kd-tree over float or double points (stored as double),
+ * for k-nearest-neighbour queries (knn.c). */
+typedef struct pkss__kdtree pkss__kdtree;
+
+pkss_status pkss__kdtree_build(const double *xyz, size_t n,
+                               pkss__kdtree **out);
+void pkss__kdtree_free(pkss__kdtree *tree);
+size_t pkss__kdtree_size(const pkss__kdtree *tree);
+/* k nearest neighbours of q (sorted by distance, nearest first); `skip` is
+ * an index to exclude (the query point itself) or SIZE_MAX. Returns how
+ * many were found (min(k, n - excluded)). idx/d2 must hold k entries. */
+size_t pkss__kdtree_knn(const pkss__kdtree *tree, const double q[3], size_t k,
+                        size_t skip, uint32_t *idx, double *d2);
+/* Nearest neighbour within sqrt(max_d2); returns index or UINT32_MAX. */
+uint32_t pkss__kdtree_nearest(const pkss__kdtree *tree, const double q[3],
+                              double max_d2, double *d2);
+/* kNN of every point of the tree itself (self excluded): idx/d2 are n*k. */
+pkss_status pkss__knn_all(const pkss__kdtree *tree, const double *xyz,
+                          size_t n, size_t k, uint32_t *idx, double *d2);
+
+/* ------------------------------------------------------- preprocessing */
+/* Each step takes an array of n points (double xyz) and writes a keep mask
+ * or a new array. They never fail except for out-of-memory. */
+
+/* SPEC 2.1: voxel-thin to about `target` points. *out is pkss__malloc'd. */
+pkss_status pkss__thin_voxel(const double *xyz, size_t n, size_t target,
+                             uint64_t seed, double **out, size_t *n_out);
+/* SPEC 2.2: mutual-kNN culling (Eq. 3). keep[i] = 1 if point i has at least
+ * one mutual neighbour among its k nearest. */
+pkss_status pkss__cull_mutual(const double *xyz, size_t n, size_t k,
+                              unsigned char *keep);
+/* SPEC 2.3: density-aware statistical filter. keep[i] = 0 for outliers. */
+pkss_status pkss__cull_stat(const double *xyz, size_t n, unsigned char *keep);
+/* SPEC 2.4: farthest-point sampling of m points, starting from the point
+ * farthest from the centroid; idx receives min(m, n) indices. */
+pkss_status pkss__fps(const double *xyz, size_t n, size_t m, uint32_t *idx,
+                      size_t *m_out);
+
+/* ------------------------------------------------------------- geometry */
+/* Row-major 3x3 helpers in double (geometry.c). */
+void pkss__mat3_mul(const double *A, const double *B, double *C);
+void pkss__mat3_transpose(const double *A, double *T);
+void pkss__mat3_identity(double *A);
+void pkss__mat3_apply(const double *A, const double *x, double *y);
+/* R = Rz(c) * Ry(b) * Rx(a) (SPEC 5). */
+void pkss__euler_zyx(double a, double b, double c, double *R);
+/* Geodesic angle between two rotations, radians. */
+double pkss__rotation_angle(const double *R1, const double *R2);
+/* Symmetric 3x3 eigen-decomposition (Jacobi, double): eigenvalues in w
+ * descending, eigenvectors as columns of V (row-major). */
+void pkss__eig_sym3(const double *S, double *w, double *V);
+/* Double-precision 3x3 SVD H = U diag(s) V^T, s descending. */
+void pkss__svd3(const double *H, double *U, double *s, double *V);
+/* Best rotation R (det +1) maximising tr(R H), H = sum x y^T: R = V D U^T. */
+void pkss__procrustes_rotation(const double *H, double *R);
+
+/* --------------------------------------------------------------- clouds */
+struct pkss_cloud {
+    pkss_counts counts;
+    size_t m;             /* resampled points */
+    double *pre;          /* m x 3 pre-shape coordinates (centred, unit RMS) */
+    double centroid[3];   /* x-bar of the resampled cloud, caller units */
+    double sigma;         /* RMS radius of the resampled cloud (Eq. 2) */
+    size_t n_feat;
+    uint32_t *feat;       /* indices into pre of feature points */
+    double axes[9];       /* PCA axes as columns, right-handed, sign fixed */
+    double half_extent[3];/* half-extent along each axis (pre-shape units) */
+    double spacing;       /* median NN spacing (pre-shape units) */
+    pkss__kdtree *tree;   /* over pre */
+    /* The first m_coarse points of pre (an FPS prefix, itself uniformly
+     * spread) with their own tree: the coarse refinement level. */
+    size_t m_coarse;
+    pkss__kdtree *tree_coarse;
+    double spacing_coarse;
+    double prep_seconds;
+    double validate_seconds;
+};
+
+pkss_status pkss__cloud_build(pkss_context *ctx, const double *xyz, size_t n,
+                              const char *which, pkss_cloud **out);
+
+/* --------------------------------------------------------------- search */
+/* Rotation candidates (candidates.c): each rotation is a binning rotation
+ * (applied to the source points before binning) plus an azimuth shift.
+ * The full candidate rotation is Rz(shift*2pi/n_az) * binning rotation. */
+typedef struct pkss__rotation_set {
+    size_t n_rotations;
+    size_t n_binnings;
+    double *R;          /* n_rotations x 9: full candidate rotations */
+    float *bin_R;       /* n_binnings x 9 */
+    int32_t *binning;   /* n_rotations: binning index */
+    int32_t *shift;     /* n_rotations: azimuth shift */
+} pkss__rotation_set;
+
+pkss_status pkss__rotations_build(const pkss__params *p,
+                                  pkss__rotation_set *out);
+void pkss__rotations_free(pkss__rotation_set *rs);
+
+/* Fills the float edge table of pkss_shared.h for n_az azimuth bins. */
+void pkss__cell_edges(int n_az, float *edges);
+
+/* Everything a backend needs to score all (rotation, offset) pairs. */
+typedef struct pkss__search_input {
+    int n_az;
+    const float *edges;         /* PKSS_EDGES_SIZE */
+    /* source, pre-aligned pre-shape coordinates (float) */
+    const float *src_pts;  int n_src;
+    const float *src_feat; int n_src_feat;   /* feature points (copies) */
+    /* template, pre-shape coordinates */
+    const float *tgt_pts;  int n_tgt;
+    const float *tgt_feat; int n_tgt_feat;
+    const pkss__rotation_set *rot;
+    int n_offsets;
+    const float *offsets;       /* n_offsets x 3 binning centres */
+    int use_features;
+} pkss__search_input;
+
+/* scores: n_rotations * n_offsets G_K values, rotation-major. Gc/Gf may be
+ * NULL; otherwise they get G_contour and G_feature. */
+pkss_status pkss__search_ref(pkss_context *ctx, const pkss__search_input *in,
+                             float *scores, float *g_contour,
+                             float *g_feature);
+
+/* One kept candidate before refinement. */
+typedef struct pkss__pick {
+    uint32_t rotation, offset;
+    float score, g_contour, g_feature;
+} pkss__pick;
+/* SPEC 5 selection: best top_k by score with 45-degree suppression.
+ * Returns how many were kept, or SIZE_MAX when out of memory. */
+size_t pkss__select_top_k(const float *scores, const float *gc,
+                          const float *gf, const pkss__rotation_set *rot,
+                          size_t n_offsets, size_t top_k, pkss__pick *out);
+
+/* ------------------------------------------------------------- refine */
+typedef struct pkss__pose {
+    double s;        /* scale */
+    double R[9];
+    double t[3];
+} pkss__pose;
+
+/* Points an ICP level works on: a prefix of a cloud's pre-shape points. */
+typedef struct pkss__icp_view {
+    const double *pts;
+    size_t m;
+    const pkss__kdtree *tree;
+    double spacing;  /* median NN spacing h of this view */
+} pkss__icp_view;
+
+void pkss__icp_view_full(const pkss_cloud *c, pkss__icp_view *v);
+void pkss__icp_view_coarse(const pkss_cloud *c, pkss__icp_view *v);
+
+typedef struct pkss__icp_schedule {
+    double gate_start;   /* in units of the template view's h */
+    int rigid_iters;     /* iterations with the scale frozen */
+    int max_iters;       /* all iterations */
+    int free_scale;      /* 0: rigid only */
+} pkss__icp_schedule;
+
+typedef struct pkss__icp_result {
+    pkss__pose pose;
+    double rms;      /* of the final mutual pairs, pre-shape template units */
+    double overlap;  /* SPEC 6 overlap score on the views used */
+    int iterations;
+} pkss__icp_result;
+
+/* SPEC 6: overlap-aware similarity ICP of the source view onto the template
+ * view from init (pre-shape coordinates of both). */
+pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
+                          const pkss__icp_schedule *sched,
+                          const pkss__pose *init, pkss__icp_result *out);
+/* Overlap score and RMS of mutual pairs closer than 2h at pose. */
+pkss_status pkss__icp_overlap(const pkss__icp_view *src,
+                              const pkss__icp_view *tgt,
+                              const pkss__pose *pose, double *overlap,
+                              double *rms);
+
+/* ------------------------------------------------------------ OpenCL */
+/* evaluate_cl.c; all return PKSS_ERR_UNSUPPORTED when built without it. */
+pkss_status pkss__cl_prepare(pkss_context *ctx);
+void pkss__cl_release(pkss_context *ctx);
+pkss_status pkss__search_cl(pkss_context *ctx, const pkss__search_input *in,
+                            float *scores, float *g_contour, float *g_feature);
+
+#endif /* PKSS_INTERNAL_H */

@@ -1,0 +1,424 @@
+/* SPDX-License-Identifier: MIT
+ * register.c -- PKSS-Align end to end (Algorithm 1): both clouds onto the
+ * pre-shape space, PCA pre-alignment, the global search over rotations x
+ * centre offsets, top-k selection, overlap-aware refinement, and the
+ * composition of the winner back into the caller's coordinates.
+ */
+#include "pkss_internal.h"
+#include "pkss_shared.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#define PKSS_PI 3.14159265358979323846
+/* Candidates refined at full resolution (by coarse overlap). */
+#define PKSS_FULL_REFINE 3
+
+void pkss_result_init(pkss_result *result)
+{
+    if (!result)
+        return;
+    memset(result, 0, sizeof *result);
+    result->struct_size = sizeof *result;
+}
+
+/* Offsets of the template's binning centre along its PCA axes (Eq. 11-12,
+ * SPEC 5): q = (a E_u u + b E_v v + c E_w w) / 8, a, b, c in -h..h. */
+static float *build_offsets(const pkss_cloud *tgt, int N, int *count)
+{
+    int h = N / 2, n = N * N * N;
+    float *q = pkss__malloc((size_t)n * 3 * sizeof(float));
+    if (!q)
+        return NULL;
+    int k = 0;
+    for (int a = -h; a <= h; ++a)
+        for (int b = -h; b <= h; ++b)
+            for (int c = -h; c <= h; ++c) {
+                double f[3] = {a * tgt->half_extent[0] / 8.0,
+                               b * tgt->half_extent[1] / 8.0,
+                               c * tgt->half_extent[2] / 8.0};
+                for (int d = 0; d < 3; ++d)
+                    q[3 * k + d] = (float)(tgt->axes[3 * d] * f[0] +
+                                           tgt->axes[3 * d + 1] * f[1] +
+                                           tgt->axes[3 * d + 2] * f[2]);
+                ++k;
+            }
+    *count = n;
+    return q;
+}
+
+static void to_float(const double *in, size_t n, const double *R, float *out)
+{
+    for (size_t i = 0; i < n; ++i) {
+        double y[3];
+        if (R)
+            pkss__mat3_apply(R, in + 3 * i, y);
+        else
+            memcpy(y, in + 3 * i, sizeof y);
+        out[3 * i] = (float)y[0];
+        out[3 * i + 1] = (float)y[1];
+        out[3 * i + 2] = (float)y[2];
+    }
+}
+
+/* Eq. 7: the local rotation O_r of a kept candidate, from the matched
+ * contour representatives in the candidate's frame (host side, double). */
+static void local_rotation(const float *src_pts, int n_src,
+                           const float *tgt_pts, int n_tgt,
+                           const pkss__rotation_set *rot, uint32_t r,
+                           const float *offset, int n_az, const float *edges,
+                           double *O_r)
+{
+    static const float I[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    float src_reps[PKSS_MAX_CELLS * 4], tgt_reps[PKSS_MAX_CELLS * 4];
+    int b = rot->binning[r], shift = rot->shift[r];
+    pkss_bin_points(src_pts, n_src, rot->bin_R + 9 * b, 0, 0, 0, n_az, edges,
+                    src_reps);
+    pkss_bin_points(tgt_pts, n_tgt, I, offset[0], offset[1], offset[2], n_az,
+                    edges, tgt_reps);
+    /* The azimuth shift is a rotation about z by shift * 2pi / n_az. */
+    double ang = shift * 2.0 * PKSS_PI / n_az;
+    double Rz[9] = {cos(ang), -sin(ang), 0, sin(ang), cos(ang), 0, 0, 0, 1};
+    int n_el = n_az / 2, k = 0;
+    double xs[PKSS_MAX_CELLS][3], ys[PKSS_MAX_CELLS][3];
+    double mx[3] = {0, 0, 0}, my[3] = {0, 0, 0};
+    for (int e = 0; e < n_el; ++e)
+        for (int a = 0; a < n_az; ++a) {
+            int ct = n_az * e + a, as = (a - shift + n_az) % n_az;
+            int cs = n_az * e + as;
+            if (!(tgt_reps[4 * ct + 3] > 0 && src_reps[4 * cs + 3] > 0))
+                continue;
+            double x[3] = {src_reps[4 * cs], src_reps[4 * cs + 1], src_reps[4 * cs + 2]};
+            pkss__mat3_apply(Rz, x, xs[k]);
+            for (int d = 0; d < 3; ++d) {
+                ys[k][d] = tgt_reps[4 * ct + d];
+                mx[d] += xs[k][d];
+                my[d] += ys[k][d];
+            }
+            ++k;
+        }
+    pkss__mat3_identity(O_r);
+    if (k < PKSS_MIN_MATCHED)
+        return;
+    double H[9] = {0};
+    for (int i = 0; i < k; ++i)
+        for (int r0 = 0; r0 < 3; ++r0)
+            for (int c0 = 0; c0 < 3; ++c0)
+                H[3 * r0 + c0] += (xs[i][r0] - mx[r0] / k) * (ys[i][c0] - my[c0] / k);
+    pkss__procrustes_rotation(H, O_r);
+}
+
+/* Pre-shape pose -> caller coordinates: x_t = s R x_s + t with
+ * s = sigma_t s' / sigma_s and t = sigma_t t' + c_t - s R c_s. */
+static void compose(const pkss_cloud *src, const pkss_cloud *tgt,
+                    const pkss__pose *P, double *T16, double *s_out,
+                    double *R_out, double *t_out)
+{
+    double s = tgt->sigma * P->s / src->sigma;
+    double Rc[3];
+    pkss__mat3_apply(P->R, src->centroid, Rc);
+    double t[3];
+    for (int d = 0; d < 3; ++d)
+        t[d] = tgt->sigma * P->t[d] + tgt->centroid[d] - s * Rc[d];
+    memset(T16, 0, 16 * sizeof(double));
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c)
+            T16[4 * r + c] = s * P->R[3 * r + c];
+        T16[4 * r + 3] = t[r];
+    }
+    T16[15] = 1.0;
+    if (s_out) *s_out = s;
+    if (R_out) memcpy(R_out, P->R, 9 * sizeof(double));
+    if (t_out) memcpy(t_out, t, 3 * sizeof(double));
+}
+
+static pkss_status check_result_arg(pkss_context *ctx, pkss_result *result)
+{
+    PKSS_RETURN_IF(!result, ctx, PKSS_ERR_NULL_ARGUMENT, "result is NULL");
+    PKSS_RETURN_IF(result->struct_size == 0, ctx, PKSS_ERR_INVALID_ARGUMENT,
+                   "result->struct_size is 0: call pkss_result_init(&result) first");
+    PKSS_RETURN_IF(result->struct_size < offsetof(pkss_result, candidates), ctx,
+                   PKSS_ERR_INVALID_ARGUMENT,
+                   "result->struct_size %zu is smaller than any released pkss_result",
+                   result->struct_size);
+    return PKSS_OK;
+}
+
+/* Copies the filled result into the caller's struct, only as many bytes as
+ * the caller's struct_size says (ABI growth, STYLE guideline 5). */
+static void deliver(pkss_result *dst, const pkss_result *src)
+{
+    size_t n = dst->struct_size < sizeof *src ? dst->struct_size : sizeof *src;
+    size_t keep = dst->struct_size;
+    memcpy(dst, src, n);
+    dst->struct_size = keep;
+}
+
+static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
+                       const pkss_cloud *tgt, pkss_result *res)
+{
+    const pkss__params *p = &ctx->params;
+    pkss_status st = PKSS_OK;
+    double t0 = pkss__now();
+    int n_az = p->cell_steps ? p->cell_steps : p->rotation_steps;
+    float edges[PKSS_EDGES_SIZE];
+    pkss__cell_edges(n_az, edges);
+
+    /* SPEC 2.7: rotate the source into the template's principal frame. */
+    double R_pre[9];
+    if (p->pca_prealign) {
+        double St[9];
+        pkss__mat3_transpose(src->axes, St);
+        pkss__mat3_mul(tgt->axes, St, R_pre);
+    } else {
+        pkss__mat3_identity(R_pre);
+    }
+
+    pkss__rotation_set rot;
+    float *src_pts = NULL, *tgt_pts = NULL, *src_feat = NULL, *tgt_feat = NULL;
+    float *offsets = NULL, *scores = NULL, *gc = NULL, *gf = NULL;
+    pkss__pick picks[PKSS_MAX_CANDIDATES];
+    memset(&rot, 0, sizeof rot);
+    st = pkss__rotations_build(p, &rot);
+    if (st != PKSS_OK)
+        goto oom;
+    int n_off = 0;
+    offsets = build_offsets(tgt, p->offset_steps, &n_off);
+    src_pts = pkss__malloc(src->m * 3 * sizeof(float));
+    tgt_pts = pkss__malloc(tgt->m * 3 * sizeof(float));
+    src_feat = pkss__malloc((src->n_feat + 1) * 3 * sizeof(float));
+    tgt_feat = pkss__malloc((tgt->n_feat + 1) * 3 * sizeof(float));
+    size_t total = rot.n_rotations * (size_t)n_off;
+    scores = pkss__malloc(total * sizeof(float));
+    gc = pkss__malloc(total * sizeof(float));
+    gf = pkss__malloc(total * sizeof(float));
+    if (!offsets || !src_pts || !tgt_pts || !src_feat || !tgt_feat || !scores ||
+        !gc || !gf)
+        goto oom;
+    to_float(src->pre, src->m, R_pre, src_pts);
+    to_float(tgt->pre, tgt->m, NULL, tgt_pts);
+    for (size_t i = 0; i < src->n_feat; ++i)
+        memcpy(src_feat + 3 * i, src_pts + 3 * (size_t)src->feat[i], 3 * sizeof(float));
+    for (size_t i = 0; i < tgt->n_feat; ++i)
+        memcpy(tgt_feat + 3 * i, tgt_pts + 3 * (size_t)tgt->feat[i], 3 * sizeof(float));
+
+    pkss__search_input in = {
+        .n_az = n_az, .edges = edges,
+        .src_pts = src_pts, .n_src = (int)src->m,
+        .src_feat = src_feat, .n_src_feat = (int)src->n_feat,
+        .tgt_pts = tgt_pts, .n_tgt = (int)tgt->m,
+        .tgt_feat = tgt_feat, .n_tgt_feat = (int)tgt->n_feat,
+        .rot = &rot, .n_offsets = n_off, .offsets = offsets,
+        .use_features = p->use_features,
+    };
+    if (ctx->backend_in_use == PKSS_BACKEND_OPENCL)
+        st = pkss__search_cl(ctx, &in, scores, gc, gf);
+    else
+        st = pkss__search_ref(ctx, &in, scores, gc, gf);
+    if (st != PKSS_OK)
+        goto done;
+    size_t kept = pkss__select_top_k(scores, gc, p->use_features ? gf : NULL,
+                                     &rot, (size_t)n_off, (size_t)p->top_k,
+                                     picks);
+    if (kept == SIZE_MAX)
+        goto oom;
+    if (kept == 0) {
+        st = pkss__fail(ctx, PKSS_ERR_NO_CONSENSUS,
+                        "no (rotation, offset) candidate matched enough cells "
+                        "(>= %d and >= %.0f%% of the template's): the clouds "
+                        "share too little shape",
+                        PKSS_MIN_MATCHED, 100.0 * PKSS_MIN_COVERAGE);
+        goto done;
+    }
+    double t1 = pkss__now();
+    res->timings.search = t1 - t0;
+    res->n_rotations = (uint32_t)rot.n_rotations;
+    res->n_offsets = (uint32_t)n_off;
+    res->n_evaluations = (uint64_t)total;
+
+    /* SPEC 6: refine every kept candidate; the winner has the highest
+     * overlap score (by residual, shrunk-to-nothing poses would win). Every
+     * candidate gets a coarse rigid level on a quarter of the points; the
+     * PKSS_FULL_REFINE best by coarse overlap then get the full schedule
+     * (rigid, then free scale) on all points. */
+    pkss__icp_view sv, tv, svc, tvc;
+    pkss__icp_view_full(src, &sv);
+    pkss__icp_view_full(tgt, &tv);
+    pkss__icp_view_coarse(src, &svc);
+    pkss__icp_view_coarse(tgt, &tvc);
+    static const pkss__icp_schedule coarse = {20.0, 20, 20, 0};
+    static const pkss__icp_schedule full = {6.0, 30, 60, 1};
+    pkss__icp_result ir[PKSS_MAX_CANDIDATES];
+    int order[PKSS_MAX_CANDIDATES];
+    for (size_t c = 0; c < kept; ++c) {
+        const pkss__pick *pk = &picks[c];
+        double O_r[9], RfRpre[9];
+        local_rotation(src_pts, (int)src->m, tgt_pts, (int)tgt->m, &rot,
+                       pk->rotation, offsets + 3 * (size_t)pk->offset, n_az,
+                       edges, O_r);
+        pkss__pose init;
+        pkss__mat3_mul(rot.R + 9 * (size_t)pk->rotation, R_pre, RfRpre);
+        pkss__mat3_mul(O_r, RfRpre, init.R);
+        init.s = 1.0; /* pre-shape units: sigma_t / sigma_s in caller units */
+        for (int d = 0; d < 3; ++d)
+            init.t[d] = offsets[3 * (size_t)pk->offset + d];
+        if (p->refine)
+            st = pkss__icp_run(&svc, &tvc, &coarse, &init, &ir[c]);
+        else {
+            ir[c].pose = init;
+            ir[c].iterations = 0;
+            st = pkss__icp_overlap(&sv, &tv, &init, &ir[c].overlap, &ir[c].rms);
+        }
+        if (st != PKSS_OK)
+            goto oom;
+        order[c] = (int)c;
+    }
+    int best = 0;
+    if (p->refine) {
+        /* candidates by coarse overlap, best first (stable) */
+        for (size_t i = 1; i < kept; ++i) {
+            int v = order[i];
+            size_t j = i;
+            while (j > 0 && ir[order[j - 1]].overlap < ir[v].overlap) {
+                order[j] = order[j - 1];
+                --j;
+            }
+            order[j] = v;
+        }
+        size_t n_full = kept < PKSS_FULL_REFINE ? kept : PKSS_FULL_REFINE;
+        for (size_t i = 0; i < kept; ++i) {
+            int c = order[i];
+            if (i < n_full) {
+                pkss__pose start = ir[c].pose;
+                st = pkss__icp_run(&sv, &tv, &full, &start, &ir[c]);
+            } else {
+                st = pkss__icp_overlap(&sv, &tv, &ir[c].pose, &ir[c].overlap,
+                                       &ir[c].rms);
+            }
+            if (st != PKSS_OK)
+                goto oom;
+        }
+        best = order[0];
+        for (size_t i = 1; i < n_full; ++i)
+            if (ir[order[i]].overlap > ir[best].overlap)
+                best = order[i];
+    }
+    for (size_t c = 0; c < kept; ++c) {
+        const pkss__pick *pk = &picks[c];
+        pkss_candidate *cand = &res->candidates[c];
+        compose(src, tgt, &ir[c].pose, cand->T_target_source, &cand->scale,
+                NULL, NULL);
+        cand->score = pk->score;
+        cand->score_contour = pk->g_contour;
+        cand->score_feature = pk->g_feature;
+        cand->rms = ir[c].rms * tgt->sigma;
+        cand->overlap = ir[c].overlap;
+        cand->rotation_index = pk->rotation;
+        cand->offset_index = pk->offset;
+    }
+    compose(src, tgt, &ir[best].pose, res->T_target_source, &res->scale,
+            res->rotation, res->translation);
+    res->n_candidates = (uint32_t)kept;
+    res->winner = (uint32_t)best;
+    res->score = res->candidates[best].score;
+    res->rms = res->candidates[best].rms;
+    res->overlap = res->candidates[best].overlap;
+    res->timings.refine = pkss__now() - t1;
+    goto done;
+
+oom:
+    st = pkss__fail(ctx, PKSS_ERR_OUT_OF_MEMORY,
+                    "out of memory during the search/refinement");
+done:
+    pkss__rotations_free(&rot);
+    pkss__free(src_pts);
+    pkss__free(tgt_pts);
+    pkss__free(src_feat);
+    pkss__free(tgt_feat);
+    pkss__free(offsets);
+    pkss__free(scores);
+    pkss__free(gc);
+    pkss__free(gf);
+    return st;
+}
+
+/* Runs the search and refinement into a library-sized result; the caller
+ * delivers it. */
+static pkss_status register_into(pkss_context *ctx, const pkss_cloud *source,
+                                 const pkss_cloud *target, pkss_result *res)
+{
+    double t0 = pkss__now();
+    pkss_status st = pkss_context_prepare(ctx);
+    if (st != PKSS_OK)
+        return st;
+    res->struct_size = sizeof *res;
+    res->source_counts = source->counts;
+    res->target_counts = target->counts;
+    res->backend = ctx->backend_in_use;
+    snprintf(res->device, sizeof res->device, "%s", ctx->device_name);
+    st = run(ctx, source, target, res);
+    res->timings.total = pkss__now() - t0;
+    return st;
+}
+
+static void clear_result(pkss_result *result)
+{
+    size_t keep = result->struct_size;
+    memset(result, 0, keep < sizeof *result ? keep : sizeof *result);
+    result->struct_size = keep;
+}
+
+pkss_status pkss_register_clouds(pkss_context *ctx, const pkss_cloud *source,
+                                 const pkss_cloud *target, pkss_result *result)
+{
+    PKSS_RETURN_IF(!ctx, NULL, PKSS_ERR_NULL_ARGUMENT, "ctx is NULL");
+    pkss__clear_error(ctx);
+    PKSS_FORWARD(check_result_arg(ctx, result));
+    PKSS_RETURN_IF(!source, ctx, PKSS_ERR_NULL_ARGUMENT, "source cloud is NULL");
+    PKSS_RETURN_IF(!target, ctx, PKSS_ERR_NULL_ARGUMENT, "target cloud is NULL");
+    pkss_result *res = pkss__calloc(1, sizeof *res);
+    if (!res) {
+        clear_result(result);
+        return pkss__fail(ctx, PKSS_ERR_OUT_OF_MEMORY, "out of memory");
+    }
+    pkss_status st = register_into(ctx, source, target, res);
+    if (st == PKSS_OK)
+        deliver(result, res);
+    else
+        clear_result(result);
+    pkss__free(res);
+    return st;
+}
+
+pkss_status pkss_register(pkss_context *ctx, const double *source,
+                          size_t n_source, const double *target,
+                          size_t n_target, pkss_result *result)
+{
+    PKSS_RETURN_IF(!ctx, NULL, PKSS_ERR_NULL_ARGUMENT, "ctx is NULL");
+    pkss__clear_error(ctx);
+    PKSS_FORWARD(check_result_arg(ctx, result));
+    double t0 = pkss__now();
+    pkss_cloud *src = NULL, *tgt = NULL;
+    pkss_result *res = pkss__calloc(1, sizeof *res);
+    pkss_status st = res ? pkss_context_prepare(ctx)
+                         : pkss__fail(ctx, PKSS_ERR_OUT_OF_MEMORY, "out of memory");
+    if (st == PKSS_OK)
+        st = pkss__cloud_build(ctx, source, n_source, "source", &src);
+    if (st == PKSS_OK)
+        st = pkss__cloud_build(ctx, target, n_target, "target", &tgt);
+    if (st == PKSS_OK)
+        st = register_into(ctx, src, tgt, res);
+    if (st == PKSS_OK) {
+        res->timings.validate = src->validate_seconds + tgt->validate_seconds;
+        res->timings.preprocess = src->prep_seconds + tgt->prep_seconds;
+        res->timings.total = pkss__now() - t0;
+        deliver(result, res);
+    } else {
+        clear_result(result);
+    }
+    pkss__free(res);
+    pkss_cloud_destroy(src);
+    pkss_cloud_destroy(tgt);
+    return st;
+}

@@ -1,0 +1,142 @@
+/* SPDX-License-Identifier: MIT
+ * search_ref.c -- the reference (plain C) backend of the factorised global
+ * search (SPEC 5, Eq. 8-12, Algorithm 1), and the top-k selection shared by
+ * all backends. The binning and scoring are the functions of
+ * kernels/pkss_shared.h, the same code the OpenCL kernels run.
+ */
+#include "pkss_internal.h"
+#include "pkss_shared.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+pkss_status pkss__search_ref(pkss_context *ctx, const pkss__search_input *in,
+                             float *scores, float *g_contour,
+                             float *g_feature)
+{
+    const int n_az = in->n_az;
+    const int n_cells = n_az * (n_az / 2);
+    const size_t table = (size_t)n_cells * 4;
+    const pkss__rotation_set *rot = in->rot;
+    const size_t n_bin = rot->n_binnings, n_off = (size_t)in->n_offsets;
+    const int feat = in->use_features;
+
+    float *src = pkss__malloc(n_bin * table * sizeof(float) * (feat ? 2 : 1));
+    float *tgt = pkss__malloc(n_off * table * sizeof(float) * (feat ? 2 : 1));
+    int *occ = pkss__malloc(n_off * 2 * sizeof(int));
+    if (!src || !tgt || !occ) {
+        pkss__free(src);
+        pkss__free(tgt);
+        pkss__free(occ);
+        return pkss__fail(ctx, PKSS_ERR_OUT_OF_MEMORY,
+                          "out of memory for %zu x %zu search tables", n_bin,
+                          n_off);
+    }
+    float *src_feat = feat ? src + n_bin * table : NULL;
+    float *tgt_feat = feat ? tgt + n_off * table : NULL;
+    static const float I[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+
+    /* The source is binned once per binning rotation about its centroid
+     * (the origin of pre-shape space) ... */
+    for (size_t b = 0; b < n_bin; ++b) {
+        pkss_bin_points(in->src_pts, in->n_src, rot->bin_R + 9 * b, 0.0f, 0.0f,
+                        0.0f, n_az, in->edges, src + b * table);
+        if (feat)
+            pkss_bin_points(in->src_feat, in->n_src_feat, rot->bin_R + 9 * b,
+                            0.0f, 0.0f, 0.0f, n_az, in->edges,
+                            src_feat + b * table);
+    }
+    /* ... the template once per centre offset (Eq. 11-12). */
+    for (size_t o = 0; o < n_off; ++o) {
+        const float *c = in->offsets + 3 * o;
+        pkss_bin_points(in->tgt_pts, in->n_tgt, I, c[0], c[1], c[2], n_az,
+                        in->edges, tgt + o * table);
+        occ[2 * o] = pkss_count_occupied(tgt + o * table, n_cells);
+        if (feat) {
+            pkss_bin_points(in->tgt_feat, in->n_tgt_feat, I, c[0], c[1], c[2],
+                            n_az, in->edges, tgt_feat + o * table);
+            occ[2 * o + 1] = pkss_count_occupied(tgt_feat + o * table, n_cells);
+        }
+    }
+    /* Every (rotation, offset) pair: G_K = max(G_contour, G_feature),
+     * Eq. 7_3. */
+    for (size_t r = 0; r < rot->n_rotations; ++r) {
+        const float *s = src + (size_t)rot->binning[r] * table;
+        const float *sf = feat ? src_feat + (size_t)rot->binning[r] * table : NULL;
+        int shift = rot->shift[r];
+        for (size_t o = 0; o < n_off; ++o) {
+            size_t k = r * n_off + o;
+            float gc = pkss_score_pair(s, shift, tgt + o * table, occ[2 * o], n_az);
+            float gf = feat ? pkss_score_pair(sf, shift, tgt_feat + o * table,
+                                              occ[2 * o + 1], n_az)
+                            : 0.0f;
+            scores[k] = gc > gf ? gc : gf;
+            if (g_contour)
+                g_contour[k] = gc;
+            if (g_feature)
+                g_feature[k] = gf;
+        }
+    }
+    pkss__free(src);
+    pkss__free(tgt);
+    pkss__free(occ);
+    return PKSS_OK;
+}
+
+/* ---------------------------------------------------------- selection */
+typedef struct scored {
+    float score;
+    uint32_t index;
+} scored;
+
+static int cmp_scored(const void *a, const void *b)
+{
+    const scored *x = a, *y = b;
+    if (x->score < y->score) return -1;
+    if (x->score > y->score) return 1;
+    return (x->index > y->index) - (x->index < y->index);
+}
+
+/* Best top_k by G_K, suppressing a candidate whose rotation lies within
+ * 45 degrees (geodesic) of an already kept one: argmin alone is fragile on
+ * near-symmetric objects, whose near-equal minima lie ~180 deg apart. */
+size_t pkss__select_top_k(const float *scores, const float *gc,
+                          const float *gf, const pkss__rotation_set *rot,
+                          size_t n_offsets, size_t top_k, pkss__pick *out)
+{
+    size_t total = rot->n_rotations * n_offsets;
+    scored *all = pkss__malloc(total * sizeof *all);
+    if (!all)
+        return SIZE_MAX;
+    size_t valid = 0;
+    for (size_t k = 0; k < total; ++k) {
+        /* G = pi/2 marks the coverage guard: never a candidate. */
+        if (!(scores[k] < PKSS_HALF_PI_F))
+            continue;
+        all[valid].score = scores[k];
+        all[valid].index = (uint32_t)k;
+        ++valid;
+    }
+    qsort(all, valid, sizeof *all, cmp_scored);
+    const double min_angle = 45.0 * 3.14159265358979323846 / 180.0;
+    size_t kept = 0;
+    for (size_t i = 0; i < valid && kept < top_k; ++i) {
+        uint32_t r = all[i].index / (uint32_t)n_offsets;
+        int close = 0;
+        for (size_t j = 0; j < kept && !close; ++j)
+            close = pkss__rotation_angle(rot->R + 9 * (size_t)r,
+                                         rot->R + 9 * (size_t)out[j].rotation) <
+                    min_angle;
+        if (close)
+            continue;
+        out[kept].rotation = r;
+        out[kept].offset = all[i].index % (uint32_t)n_offsets;
+        out[kept].score = all[i].score;
+        out[kept].g_contour = gc ? gc[all[i].index] : all[i].score;
+        out[kept].g_feature = gf ? gf[all[i].index] : 0.0f;
+        ++kept;
+    }
+    pkss__free(all);
+    return kept;
+}

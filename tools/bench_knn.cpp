@@ -1,0 +1,159 @@
+/* SPDX-License-Identifier: MIT
+ * bench_knn.cpp -- our kd-tree (src/knn.c) against nanoflann on real scans.
+ * NOT part of the default build (it is C++ and needs libnanoflann-dev).
+ *
+ * Build and run from the repository root (nanoflann: apt-get install
+ * libnanoflann-dev):
+ *
+ *   mkdir -p /tmp/bench_knn && cd /tmp/bench_knn &&
+ *   cc -std=c11 -O2 -ffp-contract=off -I/work/main/include -I/work/main/src \
+ *      -c /work/main/src/knn.c /work/main/src/alloc.c /work/main/src/thin.c &&
+ *   cc -std=c11 -O2 -I/work/main/tools/io -c /work/main/tools/io/*.c &&
+ *   g++ -std=c++17 -O2 -I/work/main/include -I/work/main/src \
+ *      -I/work/main/tools/io /work/main/tools/bench_knn.cpp *.o -lm \
+ *      -o bench_knn && ./bench_knn [cloud.ply] [runs]
+ *
+ * Default cloud: the 3DMatch fragment 3dmatch/7-scenes-redkitchen/
+ * cloud_bin_0.ply (258k points) under PKSS_DATA_DIR (default
+ * /work/shared/data), voxel-thinned with pkss__thin_voxel to about 200k,
+ * 30k and 3k points. For each size: tree build time, and the time of the
+ * all-points 12-NN query (self excluded: ours with `skip`, nanoflann with
+ * k = 13 and the self hit dropped), medians of `runs` (default 5) runs,
+ * single thread, CPU time. Both trees use leaves of 10 points. The
+ * neighbour distances of both are compared as a sanity check.
+ */
+#include <nanoflann.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
+#include <string>
+#include <vector>
+
+extern "C" {
+#include "pkss_internal.h"
+#include "pkss_io.h"
+}
+
+namespace {
+
+double cpu_seconds()
+{
+    timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
+}
+
+double median(std::vector<double> v)
+{
+    std::sort(v.begin(), v.end());
+    size_t n = v.size();
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+struct Cloud {
+    const double *xyz;
+    size_t n;
+    size_t kdtree_get_point_count() const { return n; }
+    double kdtree_get_pt(size_t i, size_t d) const { return xyz[3 * i + d]; }
+    template <class BBOX> bool kdtree_get_bbox(BBOX &) const { return false; }
+};
+
+using NanoTree = nanoflann::KDTreeSingleIndexAdaptor<
+    nanoflann::L2_Simple_Adaptor<double, Cloud>, Cloud, 3, uint32_t>;
+
+void bench(const double *xyz, size_t n, int runs)
+{
+    const size_t k = 12;
+    std::vector<uint32_t> idx(n * k);
+    std::vector<double> d2(n * k);
+    std::vector<double> ours_build, ours_query, nano_build, nano_query;
+    for (int r = 0; r < runs; ++r) {
+        double t0 = cpu_seconds();
+        pkss__kdtree *tree = nullptr;
+        if (pkss__kdtree_build(xyz, n, &tree) != PKSS_OK) {
+            std::fprintf(stderr, "pkss__kdtree_build failed\n");
+            std::exit(1);
+        }
+        double t1 = cpu_seconds();
+        pkss__knn_all(tree, xyz, n, k, idx.data(), d2.data());
+        double t2 = cpu_seconds();
+        pkss__kdtree_free(tree);
+        ours_build.push_back(t1 - t0);
+        ours_query.push_back(t2 - t1);
+    }
+    std::vector<uint32_t> nidx(k + 1);
+    std::vector<double> nd2(k + 1), nano_d2(n * k);
+    Cloud cloud{xyz, n};
+    for (int r = 0; r < runs; ++r) {
+        double t0 = cpu_seconds();
+        NanoTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+        tree.buildIndex();
+        double t1 = cpu_seconds();
+        for (size_t i = 0; i < n; ++i) {
+            size_t got = tree.knnSearch(xyz + 3 * i, k + 1, nidx.data(),
+                                        nd2.data());
+            size_t w = 0;
+            for (size_t j = 0; j < got && w < k; ++j)
+                if (nidx[j] != i)
+                    nano_d2[k * i + w++] = nd2[j];
+        }
+        double t2 = cpu_seconds();
+        nano_build.push_back(t1 - t0);
+        nano_query.push_back(t2 - t1);
+    }
+    /* Sanity: the same neighbour distances (indices may differ on ties). */
+    size_t mismatch = 0;
+    for (size_t i = 0; i < n * k; ++i)
+        if (d2[i] != nano_d2[i])
+            ++mismatch;
+    std::printf("%8zu | %9.2f %9.2f | %9.2f %9.2f | %6.2f %6.2f | %zu\n", n,
+                1e3 * median(ours_build), 1e3 * median(ours_query),
+                1e3 * median(nano_build), 1e3 * median(nano_query),
+                1e6 * median(ours_query) / double(n),
+                1e6 * median(nano_query) / double(n), mismatch);
+}
+
+} // namespace
+
+int main(int argc, char **argv)
+{
+    std::string path;
+    if (argc > 1) {
+        path = argv[1];
+    } else {
+        const char *dir = std::getenv("PKSS_DATA_DIR");
+        path = std::string(dir ? dir : "/work/shared/data") +
+               "/3dmatch/7-scenes-redkitchen/cloud_bin_0.ply";
+    }
+    int runs = argc > 2 ? std::atoi(argv[2]) : 5;
+    if (runs < 1)
+        runs = 1;
+    double *xyz = nullptr;
+    size_t n = 0;
+    char err[256];
+    if (pkss_io_read(path.c_str(), PKSS_IO_AUTO, &xyz, &n, err, sizeof err) !=
+        PKSS_IO_OK) {
+        std::fprintf(stderr, "%s: %s\n", path.c_str(), err);
+        return 1;
+    }
+    std::printf("%s: %zu points; medians of %d runs, CPU ms, k = 12\n",
+                path.c_str(), n, runs);
+    std::printf("       n |  ours bld  ours qry |  nano bld  nano qry |"
+                " us/q ours nano | d2 mismatches\n");
+    const size_t sizes[] = {200000, 30000, 3000};
+    for (size_t target : sizes) {
+        double *thin = nullptr;
+        size_t m = 0;
+        if (pkss__thin_voxel(xyz, n, target, 0, &thin, &m) != PKSS_OK) {
+            std::fprintf(stderr, "pkss__thin_voxel failed\n");
+            return 1;
+        }
+        bench(thin, m, runs);
+        pkss__free(thin);
+    }
+    pkss_io_free(xyz);
+    return 0;
+}

@@ -1,0 +1,557 @@
+/* SPDX-License-Identifier: MIT
+ * io_ply.c -- PLY reader (ascii, binary_little_endian, binary_big_endian).
+ *
+ * Reads x y z of the "vertex" element, of any scalar type. Every other
+ * property and element (faces, range_grid, list properties), before or
+ * after the vertex element, is skipped. Counts in the header are checked
+ * against the bytes actually present before anything is allocated.
+ */
+#include "io_internal.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#define PLY_MAX_ELEMENTS 1024
+#define PLY_MAX_PROPS 4096
+
+typedef struct ply_prop {
+    io_type type;       /* scalar type, or item type of a list */
+    io_type count_type; /* IO_T_INVALID for a scalar */
+} ply_prop;
+
+typedef struct ply_element {
+    char name[48];
+    uint64_t count;
+    ply_prop *props;
+    size_t n_props, cap_props;
+    int ix, iy, iz;     /* indices of x, y, z, or -1 */
+    int xyz_list;       /* one of x, y, z is a list property */
+} ply_element;
+
+typedef struct ply_header {
+    int format;         /* 0 ascii, 1 binary LE, 2 binary BE */
+    ply_element *el;
+    size_t n_el;
+} ply_header;
+
+static io_type ply_type(const char *t, size_t len)
+{
+    static const struct {
+        const char *name;
+        io_type type;
+    } k[] = {
+        {"char", IO_T_I8},     {"int8", IO_T_I8},     {"uchar", IO_T_U8},
+        {"uint8", IO_T_U8},    {"short", IO_T_I16},   {"int16", IO_T_I16},
+        {"ushort", IO_T_U16},  {"uint16", IO_T_U16},  {"int", IO_T_I32},
+        {"int32", IO_T_I32},   {"uint", IO_T_U32},    {"uint32", IO_T_U32},
+        {"float", IO_T_F32},   {"float32", IO_T_F32}, {"double", IO_T_F64},
+        {"float64", IO_T_F64}, {"int64", IO_T_I64},   {"uint64", IO_T_U64},
+    };
+    size_t i;
+    for (i = 0; i < sizeof k / sizeof k[0]; i++)
+        if (len == strlen(k[i].name) && memcmp(t, k[i].name, len) == 0)
+            return k[i].type;
+    return IO_T_INVALID;
+}
+
+static void ply_free(ply_header *h)
+{
+    size_t i;
+    for (i = 0; i < h->n_el; i++)
+        free(h->el[i].props);
+    free(h->el);
+    h->el = NULL;
+    h->n_el = 0;
+}
+
+#define MAX_TOK 8
+
+/* Parses the header; *data_start receives the offset of the first data
+ * byte. */
+static pkss_io_status ply_parse_header(io_ctx *ctx, ply_header *h,
+                                       size_t *data_start)
+{
+    io_cursor c;
+    const char *line, *tok[MAX_TOK];
+    size_t len, tlen[MAX_TOK], line_no, nt, cap_el = 0;
+    int have_format = 0;
+    char q[64], q2[64];
+
+    h->format = -1;
+    h->el = NULL;
+    h->n_el = 0;
+    io_cursor_init(&c, ctx->data, ctx->size);
+    if (!io_next_line(&c, &line, &len, &line_no) || len != 3 ||
+        memcmp(line, "ply", 3) != 0)
+        return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                       "PLY: not a PLY file (the first line is not 'ply')");
+
+    while (io_next_line(&c, &line, &len, &line_no)) {
+        const char *s = line, *e = line + len;
+        nt = 0;
+        while (nt < MAX_TOK && io_line_token(&s, e, 0, &tok[nt], &tlen[nt]))
+            nt++;
+        if (nt == 0)
+            continue; /* blank line: tolerated */
+        if (io_tok_eq(tok[0], tlen[0], "comment") ||
+            io_tok_eq(tok[0], tlen[0], "obj_info"))
+            continue;
+        if (io_tok_eq(tok[0], tlen[0], "end_header")) {
+            if (!have_format)
+                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                               "PLY: the header has no 'format' line");
+            *data_start = (size_t)(c.p - (const char *)ctx->data);
+            return PKSS_IO_OK;
+        }
+        if (io_tok_eq(tok[0], tlen[0], "format")) {
+            if (nt < 2)
+                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                               "PLY: header line %lu: 'format' without a value",
+                               (unsigned long)line_no);
+            if (io_tok_eq(tok[1], tlen[1], "ascii"))
+                h->format = 0;
+            else if (io_tok_eq(tok[1], tlen[1], "binary_little_endian"))
+                h->format = 1;
+            else if (io_tok_eq(tok[1], tlen[1], "binary_big_endian"))
+                h->format = 2;
+            else
+                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                               "PLY: header line %lu: unknown format '%s' "
+                               "(ascii, binary_little_endian or "
+                               "binary_big_endian)",
+                               (unsigned long)line_no,
+                               io_quote(tok[1], tlen[1], q, sizeof q));
+            have_format = 1;
+        } else if (io_tok_eq(tok[0], tlen[0], "element")) {
+            ply_element *el;
+            uint64_t cnt;
+            int r;
+            if (nt != 3)
+                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                               "PLY: header line %lu: expected 'element NAME "
+                               "COUNT'",
+                               (unsigned long)line_no);
+            r = io_parse_u64(tok[2], tlen[2], &cnt);
+            if (r == -2)
+                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                               "PLY: header line %lu: negative count %s for "
+                               "element '%s'",
+                               (unsigned long)line_no,
+                               io_quote(tok[2], tlen[2], q, sizeof q),
+                               io_quote(tok[1], tlen[1], q2, sizeof q2));
+            if (r == -3)
+                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                               "PLY: header line %lu: element count %s "
+                               "overflows 64 bits",
+                               (unsigned long)line_no,
+                               io_quote(tok[2], tlen[2], q, sizeof q));
+            if (r != 0)
+                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                               "PLY: header line %lu: element count '%s' is "
+                               "not an integer",
+                               (unsigned long)line_no,
+                               io_quote(tok[2], tlen[2], q, sizeof q));
+            if (h->n_el >= PLY_MAX_ELEMENTS)
+                return io_fail(ctx, PKSS_IO_ERR_UNSUPPORTED,
+                               "PLY: more than %d elements",
+                               PLY_MAX_ELEMENTS);
+            if (h->n_el == cap_el) {
+                size_t nc = cap_el ? 2 * cap_el : 4;
+                ply_element *ne =
+                    (ply_element *)realloc(h->el, nc * sizeof *ne);
+                if (!ne)
+                    return io_fail(ctx, PKSS_IO_ERR_NOMEM,
+                                   "PLY: out of memory in the header");
+                h->el = ne;
+                cap_el = nc;
+            }
+            el = &h->el[h->n_el++];
+            memset(el, 0, sizeof *el);
+            io_quote(tok[1], tlen[1], el->name, sizeof el->name);
+            el->count = cnt;
+            el->ix = el->iy = el->iz = -1;
+        } else if (io_tok_eq(tok[0], tlen[0], "property")) {
+            ply_element *el;
+            ply_prop p;
+            const char *name;
+            size_t nlen;
+            if (h->n_el == 0)
+                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                               "PLY: header line %lu: 'property' before any "
+                               "'element'",
+                               (unsigned long)line_no);
+            el = &h->el[h->n_el - 1];
+            if (nt >= 2 && io_tok_eq(tok[1], tlen[1], "list")) {
+                if (nt != 5)
+                    return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                                   "PLY: header line %lu: expected 'property "
+                                   "list COUNT_TYPE ITEM_TYPE NAME'",
+                                   (unsigned long)line_no);
+                p.count_type = ply_type(tok[2], tlen[2]);
+                p.type = ply_type(tok[3], tlen[3]);
+                if (p.count_type == IO_T_INVALID || p.type == IO_T_INVALID)
+                    return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                                   "PLY: header line %lu: unknown type '%s'",
+                                   (unsigned long)line_no,
+                                   p.count_type == IO_T_INVALID
+                                       ? io_quote(tok[2], tlen[2], q, sizeof q)
+                                       : io_quote(tok[3], tlen[3], q, sizeof q));
+                if (!io_type_is_integer(p.count_type))
+                    return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                                   "PLY: header line %lu: list count type "
+                                   "must be an integer type",
+                                   (unsigned long)line_no);
+                name = tok[4];
+                nlen = tlen[4];
+            } else {
+                if (nt != 3)
+                    return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                                   "PLY: header line %lu: expected 'property "
+                                   "TYPE NAME'",
+                                   (unsigned long)line_no);
+                p.count_type = IO_T_INVALID;
+                p.type = ply_type(tok[1], tlen[1]);
+                if (p.type == IO_T_INVALID)
+                    return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                                   "PLY: header line %lu: unknown property "
+                                   "type '%s'",
+                                   (unsigned long)line_no,
+                                   io_quote(tok[1], tlen[1], q, sizeof q));
+                name = tok[2];
+                nlen = tlen[2];
+            }
+            if (el->n_props >= PLY_MAX_PROPS)
+                return io_fail(ctx, PKSS_IO_ERR_UNSUPPORTED,
+                               "PLY: more than %d properties in element '%s'",
+                               PLY_MAX_PROPS, el->name);
+            if (el->n_props == el->cap_props) {
+                size_t nc = el->cap_props ? 2 * el->cap_props : 8;
+                ply_prop *np = (ply_prop *)realloc(el->props, nc * sizeof *np);
+                if (!np)
+                    return io_fail(ctx, PKSS_IO_ERR_NOMEM,
+                                   "PLY: out of memory in the header");
+                el->props = np;
+                el->cap_props = nc;
+            }
+            if (nlen == 1 && (name[0] == 'x' || name[0] == 'y' ||
+                              name[0] == 'z')) {
+                int *slot = name[0] == 'x' ? &el->ix
+                            : name[0] == 'y' ? &el->iy
+                                             : &el->iz;
+                if (*slot < 0)
+                    *slot = (int)el->n_props;
+                if (p.count_type != IO_T_INVALID)
+                    el->xyz_list = 1;
+            }
+            el->props[el->n_props++] = p;
+        } else {
+            return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                           "PLY: header line %lu: unknown keyword '%s'",
+                           (unsigned long)line_no,
+                           io_quote(tok[0], tlen[0], q, sizeof q));
+        }
+    }
+    return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                   "PLY: the header has no 'end_header' line (file ends at "
+                   "line %lu)",
+                   (unsigned long)c.line);
+}
+
+/* Smallest number of bytes one row of el takes (binary: scalars + list
+ * counts; ascii: one digit and one separator per scalar or count). */
+static uint64_t row_min_bytes(const ply_element *el, int ascii)
+{
+    uint64_t b = 0;
+    size_t i;
+    for (i = 0; i < el->n_props; i++) {
+        const ply_prop *p = &el->props[i];
+        if (ascii)
+            b += 2;
+        else
+            b += io_type_size(p->count_type != IO_T_INVALID ? p->count_type
+                                                            : p->type);
+    }
+    return b;
+}
+
+static int row_is_fixed(const ply_element *el)
+{
+    size_t i;
+    for (i = 0; i < el->n_props; i++)
+        if (el->props[i].count_type != IO_T_INVALID)
+            return 0;
+    return 1;
+}
+
+/* ------------------------------------------------------------- binary */
+
+static pkss_io_status skip_binary(io_ctx *ctx, const ply_element *el,
+                                  int be, size_t *pos)
+{
+    const size_t size = ctx->size;
+    uint64_t r, rmin = row_min_bytes(el, 0), need;
+    size_t i;
+    if (el->n_props == 0 || el->count == 0)
+        return PKSS_IO_OK;
+    if (io_mul_u64(el->count, rmin, &need) != 0 || need > size - *pos)
+        return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                       "PLY: header says %llu '%s' elements (at least %llu "
+                       "bytes each) but only %llu bytes are left at offset "
+                       "%llu",
+                       (unsigned long long)el->count, el->name,
+                       (unsigned long long)rmin,
+                       (unsigned long long)(size - *pos),
+                       (unsigned long long)*pos);
+    if (row_is_fixed(el)) {
+        *pos += (size_t)need;
+        return PKSS_IO_OK;
+    }
+    for (r = 0; r < el->count; r++) {
+        for (i = 0; i < el->n_props; i++) {
+            const ply_prop *p = &el->props[i];
+            size_t ts = io_type_size(p->type);
+            if (p->count_type == IO_T_INVALID) {
+                if (size - *pos < ts)
+                    goto truncated;
+                *pos += ts;
+            } else {
+                size_t cs = io_type_size(p->count_type);
+                uint64_t k, kb;
+                if (size - *pos < cs)
+                    goto truncated;
+                if (io_get_count(ctx->data + *pos, p->count_type, be, &k) != 0)
+                    return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                                   "PLY: negative list length in element "
+                                   "'%s' row %llu (offset %llu)",
+                                   el->name, (unsigned long long)r,
+                                   (unsigned long long)*pos);
+                *pos += cs;
+                if (io_mul_u64(k, ts, &kb) != 0 || kb > size - *pos)
+                    return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                                   "PLY: list of %llu items in element '%s' "
+                                   "row %llu runs past the end of the file",
+                                   (unsigned long long)k, el->name,
+                                   (unsigned long long)r);
+                *pos += (size_t)kb;
+            }
+        }
+    }
+    return PKSS_IO_OK;
+truncated:
+    return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                   "PLY: the file ends inside element '%s' row %llu of %llu",
+                   el->name, (unsigned long long)r,
+                   (unsigned long long)el->count);
+}
+
+static pkss_io_status read_binary_vertices(io_ctx *ctx,
+                                           const ply_element *el, int be,
+                                           size_t pos, double *out)
+{
+    const size_t size = ctx->size;
+    uint64_t r;
+    size_t i;
+    for (r = 0; r < el->count; r++) {
+        for (i = 0; i < el->n_props; i++) {
+            const ply_prop *p = &el->props[i];
+            size_t ts = io_type_size(p->type);
+            if (p->count_type == IO_T_INVALID) {
+                if (size - pos < ts)
+                    goto truncated;
+                if ((int)i == el->ix)
+                    out[3 * r] = io_get_value(ctx->data + pos, p->type, be);
+                else if ((int)i == el->iy)
+                    out[3 * r + 1] = io_get_value(ctx->data + pos, p->type, be);
+                else if ((int)i == el->iz)
+                    out[3 * r + 2] = io_get_value(ctx->data + pos, p->type, be);
+                pos += ts;
+            } else {
+                size_t cs = io_type_size(p->count_type);
+                uint64_t k, kb;
+                if (size - pos < cs)
+                    goto truncated;
+                if (io_get_count(ctx->data + pos, p->count_type, be, &k) != 0)
+                    return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                                   "PLY: negative list length in vertex %llu",
+                                   (unsigned long long)r);
+                pos += cs;
+                if (io_mul_u64(k, ts, &kb) != 0 || kb > size - pos)
+                    goto truncated;
+                pos += (size_t)kb;
+            }
+        }
+    }
+    return PKSS_IO_OK;
+truncated:
+    return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                   "PLY: the file ends inside vertex %llu of %llu (offset "
+                   "%llu)",
+                   (unsigned long long)r, (unsigned long long)el->count,
+                   (unsigned long long)pos);
+}
+
+/* -------------------------------------------------------------- ascii */
+
+static pkss_io_status ascii_end(io_ctx *ctx, const ply_element *el,
+                                uint64_t r, const io_cursor *c)
+{
+    return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                   "PLY: the file ends inside element '%s' row %llu of %llu "
+                   "(line %lu)",
+                   el->name, (unsigned long long)r,
+                   (unsigned long long)el->count, (unsigned long)c->line);
+}
+
+static pkss_io_status ascii_list_len(io_ctx *ctx, const ply_element *el,
+                                     uint64_t r, io_cursor *c, uint64_t *k)
+{
+    const char *t;
+    size_t tl;
+    char q[64];
+    if (!io_next_token(c, &t, &tl))
+        return ascii_end(ctx, el, r, c);
+    if (io_parse_u64(t, tl, k) != 0)
+        return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                       "PLY: line %lu: list length '%s' in element '%s' is "
+                       "not a non-negative integer",
+                       (unsigned long)c->line, io_quote(t, tl, q, sizeof q),
+                       el->name);
+    return PKSS_IO_OK;
+}
+
+static pkss_io_status ascii_rows(io_ctx *ctx, const ply_element *el,
+                                 io_cursor *c, double *out)
+{
+    uint64_t r, j, k;
+    size_t i;
+    const char *t;
+    size_t tl;
+    char q[64];
+    pkss_io_status st;
+    if (el->n_props == 0)
+        return PKSS_IO_OK;
+    for (r = 0; r < el->count; r++) {
+        for (i = 0; i < el->n_props; i++) {
+            const ply_prop *p = &el->props[i];
+            if (p->count_type != IO_T_INVALID) {
+                st = ascii_list_len(ctx, el, r, c, &k);
+                if (st != PKSS_IO_OK)
+                    return st;
+                for (j = 0; j < k; j++)
+                    if (!io_next_token(c, &t, &tl))
+                        return ascii_end(ctx, el, r, c);
+                continue;
+            }
+            if (!io_next_token(c, &t, &tl))
+                return ascii_end(ctx, el, r, c);
+            if (out && ((int)i == el->ix || (int)i == el->iy ||
+                        (int)i == el->iz)) {
+                double v;
+                int axis = (int)i == el->ix ? 0 : (int)i == el->iy ? 1 : 2;
+                if (io_parse_double(t, tl, &v) != 0)
+                    return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                                   "PLY: line %lu: vertex %llu: '%s' is not "
+                                   "a number",
+                                   (unsigned long)c->line,
+                                   (unsigned long long)r,
+                                   io_quote(t, tl, q, sizeof q));
+                out[3 * r + axis] = v;
+            }
+        }
+    }
+    return PKSS_IO_OK;
+}
+
+/* --------------------------------------------------------------- main */
+
+pkss_io_status io_read_ply(io_ctx *ctx, double **xyz, size_t *n)
+{
+    ply_header h;
+    size_t pos = 0, e, vi;
+    pkss_io_status st;
+    ply_element *v = NULL;
+    io_cursor c;
+    uint64_t need, left;
+    double *out;
+    int ascii, be;
+
+    st = ply_parse_header(ctx, &h, &pos);
+    if (st != PKSS_IO_OK) {
+        ply_free(&h);
+        return st;
+    }
+    for (vi = 0; vi < h.n_el; vi++)
+        if (strcmp(h.el[vi].name, "vertex") == 0) {
+            v = &h.el[vi];
+            break;
+        }
+    if (!v) {
+        st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                     "PLY: the header declares no 'vertex' element");
+        goto done;
+    }
+    if (v->ix < 0 || v->iy < 0 || v->iz < 0) {
+        st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                     "PLY: element 'vertex' lacks property '%s'",
+                     v->ix < 0 ? "x" : v->iy < 0 ? "y" : "z");
+        goto done;
+    }
+    if (v->xyz_list) {
+        st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                     "PLY: vertex x, y and z must be scalar properties, not "
+                     "lists");
+        goto done;
+    }
+    if (v->count == 0) {
+        st = io_fail(ctx, PKSS_IO_ERR_EMPTY,
+                     "PLY: the header declares 0 vertices");
+        goto done;
+    }
+    ascii = h.format == 0;
+    be = h.format == 2;
+
+    /* Skip the elements before the vertex element. */
+    io_cursor_init(&c, ctx->data, ctx->size);
+    c.p += pos;
+    for (e = 0; e < vi; e++) {
+        if (ascii)
+            st = ascii_rows(ctx, &h.el[e], &c, NULL);
+        else
+            st = skip_binary(ctx, &h.el[e], be, &pos);
+        if (st != PKSS_IO_OK)
+            goto done;
+    }
+    if (ascii)
+        pos = (size_t)(c.p - (const char *)ctx->data);
+
+    /* Check the declared vertex count against the bytes left. */
+    left = ctx->size - pos;
+    if (io_mul_u64(v->count, row_min_bytes(v, ascii), &need) != 0 ||
+        need > left + (ascii ? 1 : 0)) {
+        st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                     "PLY: header says %llu vertices (%s%llu bytes each) but "
+                     "the file holds only %llu bytes of vertex data",
+                     (unsigned long long)v->count, ascii ? "at least " : "",
+                     (unsigned long long)row_min_bytes(v, ascii),
+                     (unsigned long long)left);
+        goto done;
+    }
+    out = io_alloc_points(ctx, v->count);
+    if (!out) {
+        st = PKSS_IO_ERR_NOMEM;
+        goto done;
+    }
+    if (ascii)
+        st = ascii_rows(ctx, v, &c, out);
+    else
+        st = read_binary_vertices(ctx, v, be, pos, out);
+    if (st != PKSS_IO_OK) {
+        free(out);
+        goto done;
+    }
+    *xyz = out;
+    *n = (size_t)v->count;
+done:
+    ply_free(&h);
+    return st;
+}

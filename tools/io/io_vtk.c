@@ -1,0 +1,209 @@
+/* SPDX-License-Identifier: MIT
+ * io_vtk.c -- legacy VTK (POLYDATA, UNSTRUCTURED_GRID, STRUCTURED_GRID
+ * POINTS; ASCII or big-endian BINARY) and KITTI .bin readers.
+ */
+#include "io_internal.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+/* ----------------------------------------------------------------- KITTI */
+
+pkss_io_status io_read_kitti(io_ctx *ctx, double **xyz, size_t *n)
+{
+    size_t i, np;
+    double *out;
+    if (ctx->size % 16 != 0)
+        return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                       "KITTI: size %llu bytes is not a multiple of 16 (records "
+                       "of float32 x y z intensity); truncated or not a KITTI "
+                       ".bin",
+                       (unsigned long long)ctx->size);
+    np = ctx->size / 16;
+    out = io_alloc_points(ctx, np);
+    if (!out)
+        return PKSS_IO_ERR_NOMEM;
+    for (i = 0; i < np; i++) {
+        const unsigned char *r = ctx->data + 16 * i;
+        out[3 * i] = io_get_value(r, IO_T_F32, 0);
+        out[3 * i + 1] = io_get_value(r + 4, IO_T_F32, 0);
+        out[3 * i + 2] = io_get_value(r + 8, IO_T_F32, 0);
+    }
+    *xyz = out;
+    *n = np;
+    return PKSS_IO_OK;
+}
+
+/* ------------------------------------------------------------------- VTK */
+
+static io_type vtk_type(const char *t, size_t len)
+{
+    static const struct {
+        const char *name;
+        io_type type;
+    } k[] = {
+        {"float", IO_T_F32},         {"double", IO_T_F64},
+        {"char", IO_T_I8},           {"unsigned_char", IO_T_U8},
+        {"short", IO_T_I16},         {"unsigned_short", IO_T_U16},
+        {"int", IO_T_I32},           {"unsigned_int", IO_T_U32},
+        {"long", IO_T_I64},          {"unsigned_long", IO_T_U64},
+        {"vtktypeint64", IO_T_I64},  {"vtktypeuint64", IO_T_U64},
+        {"vtkidtype", IO_T_I64},
+    };
+    size_t i;
+    for (i = 0; i < sizeof k / sizeof k[0]; i++)
+        if (io_tok_eq(t, len, k[i].name))
+            return k[i].type;
+    return IO_T_INVALID;
+}
+
+pkss_io_status io_read_vtk(io_ctx *ctx, double **xyz, size_t *n)
+{
+    io_cursor c;
+    const char *line, *s, *e, *t;
+    size_t len, line_no, l, start;
+    int binary, have_dataset = 0;
+    uint64_t np = 0, need, left, i;
+    io_type type = IO_T_INVALID;
+    double *out;
+    char q[64];
+
+    io_cursor_init(&c, ctx->data, ctx->size);
+    if (!io_next_line(&c, &line, &len, &line_no) || len < 5 ||
+        memcmp(line, "# vtk", 5) != 0)
+        return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                       "VTK: not a legacy VTK file (the first line is not "
+                       "'# vtk DataFile Version x.x')");
+    if (!io_next_line(&c, &line, &len, &line_no)) /* title */
+        return io_fail(ctx, PKSS_IO_ERR_FORMAT, "VTK: the file ends after "
+                       "line 1");
+    if (!io_next_line(&c, &line, &len, &line_no))
+        return io_fail(ctx, PKSS_IO_ERR_FORMAT, "VTK: the file ends after "
+                       "line 2 (no ASCII/BINARY line)");
+    s = line;
+    e = line + len;
+    if (!io_line_token(&s, e, 0, &t, &l) ||
+        (!io_tok_eq(t, l, "ASCII") && !io_tok_eq(t, l, "BINARY")))
+        return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                       "VTK: line 3 must be ASCII or BINARY, not '%s'",
+                       io_quote(line, len, q, sizeof q));
+    binary = io_tok_eq(t, l, "BINARY");
+
+    /* DATASET, then (DIMENSIONS etc.) until POINTS */
+    for (;;) {
+        if (!io_next_line(&c, &line, &len, &line_no))
+            return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                           "VTK: the file ends before %s",
+                           have_dataset ? "the POINTS section"
+                                        : "the DATASET line");
+        s = line;
+        e = line + len;
+        if (!io_line_token(&s, e, 0, &t, &l))
+            continue;
+        if (!have_dataset) {
+            if (!io_tok_eq(t, l, "DATASET"))
+                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                               "VTK: line %lu: expected DATASET, got '%s'",
+                               (unsigned long)line_no,
+                               io_quote(t, l, q, sizeof q));
+            if (!io_line_token(&s, e, 0, &t, &l))
+                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                               "VTK: line %lu: DATASET without a type",
+                               (unsigned long)line_no);
+            if (!io_tok_eq(t, l, "POLYDATA") &&
+                !io_tok_eq(t, l, "UNSTRUCTURED_GRID") &&
+                !io_tok_eq(t, l, "STRUCTURED_GRID"))
+                return io_fail(ctx, PKSS_IO_ERR_UNSUPPORTED,
+                               "VTK: DATASET %s has no explicit POINTS "
+                               "(supported: POLYDATA, UNSTRUCTURED_GRID, "
+                               "STRUCTURED_GRID)",
+                               io_quote(t, l, q, sizeof q));
+            have_dataset = 1;
+            continue;
+        }
+        if (io_tok_eq(t, l, "DIMENSIONS"))
+            continue;
+        if (io_tok_eq(t, l, "POINTS"))
+            break;
+        if (io_tok_eq(t, l, "FIELD"))
+            return io_fail(ctx, PKSS_IO_ERR_UNSUPPORTED,
+                           "VTK: line %lu: FIELD data before POINTS is not "
+                           "supported",
+                           (unsigned long)line_no);
+        return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                       "VTK: line %lu: expected POINTS, got '%s'",
+                       (unsigned long)line_no, io_quote(t, l, q, sizeof q));
+    }
+    /* POINTS n type */
+    {
+        int r;
+        if (!io_line_token(&s, e, 0, &t, &l))
+            return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                           "VTK: line %lu: POINTS without a count",
+                           (unsigned long)line_no);
+        r = io_parse_u64(t, l, &np);
+        if (r != 0)
+            return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                           "VTK: line %lu: POINTS count '%s' is %s",
+                           (unsigned long)line_no, io_quote(t, l, q, sizeof q),
+                           r == -2   ? "negative"
+                           : r == -3 ? "too large"
+                                     : "not an integer");
+        if (!io_line_token(&s, e, 0, &t, &l) ||
+            (type = vtk_type(t, l)) == IO_T_INVALID)
+            return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                           "VTK: line %lu: POINTS needs a data type (float, "
+                           "double, int, ...)",
+                           (unsigned long)line_no);
+    }
+    if (np == 0)
+        return io_fail(ctx, PKSS_IO_ERR_EMPTY, "VTK: POINTS 0");
+    start = (size_t)(c.p - (const char *)ctx->data);
+    left = ctx->size - start;
+    if (binary) {
+        if (io_mul_u64(np, 3 * io_type_size(type), &need) != 0 ||
+            need > left)
+            return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                           "VTK: header says %llu points (%lu bytes each) but "
+                           "the file holds only %llu bytes of data",
+                           (unsigned long long)np,
+                           (unsigned long)(3 * io_type_size(type)),
+                           (unsigned long long)left);
+    } else if (io_mul_u64(np, 6, &need) != 0 || need > left + 1) {
+        return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                       "VTK: header says %llu points but the file holds only "
+                       "%llu bytes of data (at least 6 per point in ASCII)",
+                       (unsigned long long)np, (unsigned long long)left);
+    }
+    out = io_alloc_points(ctx, np);
+    if (!out)
+        return PKSS_IO_ERR_NOMEM;
+    if (binary) {
+        size_t ts = io_type_size(type);
+        const unsigned char *b = ctx->data + start;
+        for (i = 0; i < 3 * np; i++)
+            out[i] = io_get_value(b + i * ts, type, 1);
+    } else {
+        for (i = 0; i < 3 * np; i++) {
+            if (!io_next_token(&c, &t, &l)) {
+                free(out);
+                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                               "VTK: the file ends at point %llu of %llu",
+                               (unsigned long long)(i / 3),
+                               (unsigned long long)np);
+            }
+            if (io_parse_double(t, l, &out[i]) != 0) {
+                free(out);
+                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                               "VTK: line %lu: point %llu: '%s' is not a "
+                               "number",
+                               (unsigned long)c.line,
+                               (unsigned long long)(i / 3),
+                               io_quote(t, l, q, sizeof q));
+            }
+        }
+    }
+    *xyz = out;
+    *n = (size_t)np;
+    return PKSS_IO_OK;
+}

@@ -1,0 +1,676 @@
+/* SPDX-License-Identifier: MIT
+ * pkss_io.c -- format names, whole-file reading, dispatch to the parsers,
+ * the PLY writer and the helpers declared in io_internal.h.
+ */
+#include "io_internal.h"
+
+#include <ctype.h>
+#include <errno.h>
+#include <stdarg.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* ================================================================ errors */
+
+pkss_io_status io_fail(io_ctx *ctx, pkss_io_status status, const char *fmt,
+                       ...)
+{
+    if (ctx && ctx->err && ctx->err_size > 0) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(ctx->err, ctx->err_size, fmt, ap);
+        va_end(ap);
+    }
+    return status;
+}
+
+const char *io_quote(const char *s, size_t len, char *buf, size_t buf_size)
+{
+    size_t i, o = 0, lim = len > 40 ? 40 : len;
+    if (buf_size < 48)
+        return "";
+    for (i = 0; i < lim; i++) {
+        unsigned char ch = (unsigned char)s[i];
+        buf[o++] = (ch >= 0x20 && ch < 0x7f) ? (char)ch : '?';
+    }
+    if (len > lim) {
+        memcpy(buf + o, "...", 3);
+        o += 3;
+    }
+    buf[o] = '\0';
+    return buf;
+}
+
+static void set_err(char *err, size_t err_size, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+static void set_err(char *err, size_t err_size, const char *fmt, ...)
+{
+    if (err && err_size > 0) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(err, err_size, fmt, ap);
+        va_end(ap);
+    }
+}
+
+/* ============================================================== numbers */
+
+int io_parse_double(const char *s, size_t len, double *out)
+{
+    char buf[128];
+    char *end = NULL;
+    double v;
+    if (len == 0 || len >= sizeof buf)
+        return -1;
+    /* strtod would skip leading blanks: a token never has any, but be
+     * strict so "  1" in a CSV cell is handled by the tokenizer only. */
+    if (isspace((unsigned char)s[0]))
+        return -1;
+    memcpy(buf, s, len);
+    buf[len] = '\0';
+    v = strtod(buf, &end);
+    if (end != buf + len)
+        return -1;
+    *out = v; /* overflow gives +-inf, which the reader passes through */
+    return 0;
+}
+
+int io_parse_u64(const char *s, size_t len, uint64_t *out)
+{
+    size_t i = 0;
+    uint64_t v = 0;
+    int neg = 0;
+    if (len == 0)
+        return -1;
+    if (s[0] == '+' || s[0] == '-') {
+        neg = s[0] == '-';
+        i = 1;
+        if (len == 1)
+            return -1;
+    }
+    for (; i < len; i++) {
+        unsigned d;
+        if (s[i] < '0' || s[i] > '9')
+            return -1;
+        d = (unsigned)(s[i] - '0');
+        if (v > (UINT64_MAX - d) / 10) {
+            /* keep scanning so "-999...9x" is "not an integer" */
+            size_t j;
+            for (j = i; j < len; j++)
+                if (s[j] < '0' || s[j] > '9')
+                    return -1;
+            return neg ? -2 : -3;
+        }
+        v = v * 10 + d;
+    }
+    if (neg && v != 0)
+        return -2;
+    *out = v;
+    return 0;
+}
+
+int io_mul_u64(uint64_t a, uint64_t b, uint64_t *out)
+{
+    if (a != 0 && b > UINT64_MAX / a)
+        return -1;
+    *out = a * b;
+    return 0;
+}
+
+/* ========================================================== binary data */
+
+size_t io_type_size(io_type t)
+{
+    switch (t) {
+    case IO_T_I8: case IO_T_U8: return 1;
+    case IO_T_I16: case IO_T_U16: return 2;
+    case IO_T_I32: case IO_T_U32: case IO_T_F32: return 4;
+    case IO_T_I64: case IO_T_U64: case IO_T_F64: return 8;
+    default: return 0;
+    }
+}
+
+int io_type_is_integer(io_type t)
+{
+    return t != IO_T_INVALID && t != IO_T_F32 && t != IO_T_F64;
+}
+
+static uint64_t load_bits(const unsigned char *p, size_t nb, int big_endian)
+{
+    uint64_t v = 0;
+    size_t i;
+    if (big_endian)
+        for (i = 0; i < nb; i++)
+            v = (v << 8) | p[i];
+    else
+        for (i = nb; i-- > 0;)
+            v = (v << 8) | p[i];
+    return v;
+}
+
+double io_get_value(const unsigned char *p, io_type t, int big_endian)
+{
+    uint64_t b = load_bits(p, io_type_size(t), big_endian);
+    switch (t) {
+    case IO_T_I8: return (double)(int8_t)(uint8_t)b;
+    case IO_T_U8: return (double)(uint8_t)b;
+    case IO_T_I16: return (double)(int16_t)(uint16_t)b;
+    case IO_T_U16: return (double)(uint16_t)b;
+    case IO_T_I32: return (double)(int32_t)(uint32_t)b;
+    case IO_T_U32: return (double)(uint32_t)b;
+    case IO_T_I64: return (double)(int64_t)b;
+    case IO_T_U64: return (double)b;
+    case IO_T_F32: {
+        uint32_t u = (uint32_t)b;
+        float f;
+        memcpy(&f, &u, sizeof f);
+        return (double)f;
+    }
+    case IO_T_F64: {
+        double d;
+        memcpy(&d, &b, sizeof d);
+        return d;
+    }
+    default: return 0.0;
+    }
+}
+
+int io_get_count(const unsigned char *p, io_type t, int big_endian,
+                 uint64_t *out)
+{
+    uint64_t b = load_bits(p, io_type_size(t), big_endian);
+    switch (t) {
+    case IO_T_I8: if ((int8_t)(uint8_t)b < 0) return -1; break;
+    case IO_T_I16: if ((int16_t)(uint16_t)b < 0) return -1; break;
+    case IO_T_I32: if ((int32_t)(uint32_t)b < 0) return -1; break;
+    case IO_T_I64: if ((int64_t)b < 0) return -1; break;
+    default: break;
+    }
+    *out = b;
+    return 0;
+}
+
+/* ================================================================= text */
+
+void io_cursor_init(io_cursor *c, const void *data, size_t size)
+{
+    c->p = (const char *)data;
+    c->end = c->p + size;
+    c->line = 1;
+}
+
+size_t io_cursor_left(const io_cursor *c)
+{
+    return (size_t)(c->end - c->p);
+}
+
+static int is_ws(char ch)
+{
+    return ch == ' ' || ch == '\t' || ch == '\n' || ch == '\r' ||
+           ch == '\v' || ch == '\f';
+}
+
+int io_next_token(io_cursor *c, const char **tok, size_t *len)
+{
+    const char *p = c->p, *end = c->end, *s;
+    while (p < end && is_ws(*p)) {
+        if (*p == '\n' || (*p == '\r' && (p + 1 >= end || p[1] != '\n')))
+            c->line++;
+        p++;
+    }
+    if (p >= end) {
+        c->p = p;
+        return 0;
+    }
+    s = p;
+    while (p < end && !is_ws(*p))
+        p++;
+    *tok = s;
+    *len = (size_t)(p - s);
+    c->p = p;
+    return 1;
+}
+
+int io_next_line(io_cursor *c, const char **line, size_t *len,
+                 size_t *line_no)
+{
+    const char *p = c->p, *end = c->end, *s = p;
+    if (p >= end)
+        return 0;
+    while (p < end && *p != '\n' && *p != '\r')
+        p++;
+    *line = s;
+    *len = (size_t)(p - s);
+    if (line_no)
+        *line_no = c->line;
+    if (p < end) {
+        if (*p == '\r' && p + 1 < end && p[1] == '\n')
+            p += 2;
+        else
+            p++;
+        c->line++;
+    }
+    c->p = p;
+    return 1;
+}
+
+int io_line_token(const char **sp, const char *end, int commas,
+                  const char **tok, size_t *len)
+{
+    const char *p = *sp, *s;
+    for (;;) {
+        while (p < end && is_ws(*p))
+            p++;
+        if (p < end && commas && *p == ',') {
+            /* an empty cell (",,") is skipped like blank space */
+            p++;
+            continue;
+        }
+        break;
+    }
+    if (p >= end) {
+        *sp = p;
+        return 0;
+    }
+    s = p;
+    while (p < end && !is_ws(*p) && !(commas && *p == ','))
+        p++;
+    *tok = s;
+    *len = (size_t)(p - s);
+    if (p < end && commas && *p == ',')
+        p++;
+    *sp = p;
+    return 1;
+}
+
+int io_tok_eq(const char *tok, size_t len, const char *word)
+{
+    size_t i;
+    for (i = 0; i < len; i++) {
+        if (word[i] == '\0')
+            return 0;
+        if (tolower((unsigned char)tok[i]) != tolower((unsigned char)word[i]))
+            return 0;
+    }
+    return word[len] == '\0';
+}
+
+double *io_alloc_points(io_ctx *ctx, uint64_t n)
+{
+    double *p;
+    if (n == 0 || n > SIZE_MAX / (3 * sizeof(double))) {
+        io_fail(ctx, PKSS_IO_ERR_NOMEM, "cannot hold %llu points in memory",
+                (unsigned long long)n);
+        return NULL;
+    }
+    p = (double *)malloc((size_t)n * 3 * sizeof(double));
+    if (!p)
+        io_fail(ctx, PKSS_IO_ERR_NOMEM,
+                "out of memory allocating %llu points (%llu bytes)",
+                (unsigned long long)n,
+                (unsigned long long)(n * 3 * sizeof(double)));
+    return p;
+}
+
+/* ============================================================= formats */
+
+static const struct {
+    const char *name;
+    pkss_io_format fmt;
+} k_names[] = {
+    {"auto", PKSS_IO_AUTO}, {"ply", PKSS_IO_PLY},     {"pcd", PKSS_IO_PCD},
+    {"xyz", PKSS_IO_XYZ},   {"txt", PKSS_IO_XYZ},     {"csv", PKSS_IO_XYZ},
+    {"pts", PKSS_IO_XYZ},   {"asc", PKSS_IO_XYZ},     {"off", PKSS_IO_OFF},
+    {"bin", PKSS_IO_KITTI}, {"kitti", PKSS_IO_KITTI}, {"vtk", PKSS_IO_VTK},
+};
+
+const char *pkss_io_format_name(pkss_io_format f)
+{
+    switch (f) {
+    case PKSS_IO_AUTO: return "auto";
+    case PKSS_IO_PLY: return "ply";
+    case PKSS_IO_PCD: return "pcd";
+    case PKSS_IO_XYZ: return "xyz";
+    case PKSS_IO_OFF: return "off";
+    case PKSS_IO_KITTI: return "kitti";
+    case PKSS_IO_VTK: return "vtk";
+    default: return NULL;
+    }
+}
+
+pkss_io_format pkss_io_format_from_name(const char *name)
+{
+    size_t i;
+    if (!name)
+        return PKSS_IO_AUTO;
+    for (i = 0; i < sizeof k_names / sizeof k_names[0]; i++)
+        if (io_tok_eq(name, strlen(name), k_names[i].name))
+            return k_names[i].fmt;
+    return (pkss_io_format)-1;
+}
+
+pkss_io_format pkss_io_format_from_path(const char *path)
+{
+    const char *dot, *slash;
+    size_t i;
+    if (!path)
+        return PKSS_IO_AUTO;
+    dot = strrchr(path, '.');
+    slash = strrchr(path, '/');
+    if (!dot || (slash && dot < slash) || dot[1] == '\0')
+        return PKSS_IO_AUTO;
+    for (i = 1; i < sizeof k_names / sizeof k_names[0]; i++) {
+        if (k_names[i].fmt == PKSS_IO_KITTI &&
+            strcmp(k_names[i].name, "kitti") == 0)
+            continue; /* "kitti" is a format name, not an extension */
+        if (io_tok_eq(dot + 1, strlen(dot + 1), k_names[i].name))
+            return k_names[i].fmt;
+    }
+    return PKSS_IO_AUTO;
+}
+
+static int starts_with(const unsigned char *d, size_t n, const char *w)
+{
+    size_t l = strlen(w);
+    return n >= l && memcmp(d, w, l) == 0;
+}
+
+pkss_io_format pkss_io_format_from_content(const void *data, size_t size)
+{
+    const unsigned char *d = (const unsigned char *)data;
+    size_t i;
+    if (!d || size == 0)
+        return PKSS_IO_AUTO;
+    if (starts_with(d, size, "ply\n") || starts_with(d, size, "ply\r\n"))
+        return PKSS_IO_PLY;
+    if (starts_with(d, size, "# vtk DataFile"))
+        return PKSS_IO_VTK;
+    if (starts_with(d, size, "# .PCD") || starts_with(d, size, "VERSION") ||
+        starts_with(d, size, "FIELDS"))
+        return PKSS_IO_PCD;
+    for (i = 0; i < size && i < 8 && isupper(d[i]); i++)
+        ;
+    if (i >= 3 && i < size && memcmp(d + i - 3, "OFF", 3) == 0 &&
+        (isspace(d[i]) || isdigit(d[i])))
+        return PKSS_IO_OFF;
+    return PKSS_IO_AUTO;
+}
+
+const char *pkss_io_status_name(pkss_io_status s)
+{
+    switch (s) {
+    case PKSS_IO_OK: return "PKSS_IO_OK";
+    case PKSS_IO_ERR_OPEN: return "PKSS_IO_ERR_OPEN";
+    case PKSS_IO_ERR_FORMAT: return "PKSS_IO_ERR_FORMAT";
+    case PKSS_IO_ERR_UNSUPPORTED: return "PKSS_IO_ERR_UNSUPPORTED";
+    case PKSS_IO_ERR_NOMEM: return "PKSS_IO_ERR_NOMEM";
+    case PKSS_IO_ERR_ARGUMENT: return "PKSS_IO_ERR_ARGUMENT";
+    case PKSS_IO_ERR_EMPTY: return "PKSS_IO_ERR_EMPTY";
+    default: return "PKSS_IO_UNKNOWN_STATUS";
+    }
+}
+
+/* ============================================================= reading */
+
+static pkss_io_status parse(io_ctx *ctx, pkss_io_format fmt, double **xyz,
+                            size_t *n)
+{
+    pkss_io_status st;
+    if (ctx->size == 0)
+        return io_fail(ctx, PKSS_IO_ERR_EMPTY, "%s: the file is empty (0 bytes)",
+                       pkss_io_format_name(fmt) ? pkss_io_format_name(fmt)
+                                                : "?");
+    switch (fmt) {
+    case PKSS_IO_PLY: st = io_read_ply(ctx, xyz, n); break;
+    case PKSS_IO_PCD: st = io_read_pcd(ctx, xyz, n); break;
+    case PKSS_IO_XYZ: st = io_read_xyz(ctx, xyz, n); break;
+    case PKSS_IO_OFF: st = io_read_off(ctx, xyz, n); break;
+    case PKSS_IO_KITTI: st = io_read_kitti(ctx, xyz, n); break;
+    case PKSS_IO_VTK: st = io_read_vtk(ctx, xyz, n); break;
+    default:
+        return io_fail(ctx, PKSS_IO_ERR_ARGUMENT, "unknown format code %d",
+                       (int)fmt);
+    }
+    if (st != PKSS_IO_OK) {
+        free(*xyz);
+        *xyz = NULL;
+        *n = 0;
+    } else if (*n == 0) {
+        free(*xyz);
+        *xyz = NULL;
+        st = io_fail(ctx, PKSS_IO_ERR_EMPTY, "%s: the file holds no points",
+                     pkss_io_format_name(fmt));
+    }
+    return st;
+}
+
+pkss_io_status pkss_io_read_memory(const void *data, size_t size,
+                                   pkss_io_format fmt, double **xyz,
+                                   size_t *n, char *err, size_t err_size)
+{
+    io_ctx ctx;
+    ctx.data = (const unsigned char *)data;
+    ctx.size = size;
+    ctx.err = err;
+    ctx.err_size = err_size;
+    if (err && err_size)
+        err[0] = '\0';
+    if (!xyz || !n)
+        return io_fail(&ctx, PKSS_IO_ERR_ARGUMENT, "xyz and n must not be NULL");
+    *xyz = NULL;
+    *n = 0;
+    if (!data && size > 0)
+        return io_fail(&ctx, PKSS_IO_ERR_ARGUMENT, "data is NULL");
+    if (fmt == PKSS_IO_AUTO)
+        fmt = pkss_io_format_from_content(data, size);
+    if (fmt == PKSS_IO_AUTO || pkss_io_format_name(fmt) == NULL)
+        return io_fail(&ctx, PKSS_IO_ERR_ARGUMENT,
+                       "cannot tell the format: give one explicitly");
+    return parse(&ctx, fmt, xyz, n);
+}
+
+/* Reads a whole stream; works for pipes too. *buf is malloc'd. */
+static pkss_io_status slurp(FILE *f, const char *path, unsigned char **buf,
+                            size_t *size, char *err, size_t err_size)
+{
+    size_t cap = 1 << 16, len = 0;
+    unsigned char *b = NULL;
+    long hint = -1;
+    if (fseek(f, 0, SEEK_END) == 0) {
+        hint = ftell(f);
+        if (fseek(f, 0, SEEK_SET) != 0)
+            hint = -1;
+    }
+    clearerr(f);
+    if (hint >= 0 && (unsigned long)hint < SIZE_MAX - 1)
+        cap = (size_t)hint + 1; /* +1 to see EOF without a realloc */
+    b = (unsigned char *)malloc(cap);
+    if (!b) {
+        set_err(err, err_size, "%s: out of memory reading %lu bytes", path,
+                (unsigned long)cap);
+        return PKSS_IO_ERR_NOMEM;
+    }
+    for (;;) {
+        size_t got;
+        if (len == cap) {
+            unsigned char *nb;
+            if (cap > SIZE_MAX / 2) {
+                free(b);
+                set_err(err, err_size, "%s: file too large", path);
+                return PKSS_IO_ERR_NOMEM;
+            }
+            nb = (unsigned char *)realloc(b, cap * 2);
+            if (!nb) {
+                free(b);
+                set_err(err, err_size, "%s: out of memory after %lu bytes",
+                        path, (unsigned long)len);
+                return PKSS_IO_ERR_NOMEM;
+            }
+            b = nb;
+            cap *= 2;
+        }
+        got = fread(b + len, 1, cap - len, f);
+        len += got;
+        if (got == 0) {
+            if (ferror(f)) {
+                int e = errno;
+                free(b);
+                set_err(err, err_size, "%s: read error: %s", path,
+                        e ? strerror(e) : "unknown error");
+                return PKSS_IO_ERR_OPEN;
+            }
+            break;
+        }
+    }
+    *buf = b;
+    *size = len;
+    return PKSS_IO_OK;
+}
+
+pkss_io_status pkss_io_read(const char *path, pkss_io_format fmt,
+                            double **xyz, size_t *n, char *err,
+                            size_t err_size)
+{
+    FILE *f;
+    unsigned char *buf = NULL;
+    size_t size = 0;
+    pkss_io_status st;
+    char msg[1024];
+    int is_stdin;
+    io_ctx ctx;
+
+    if (err && err_size)
+        err[0] = '\0';
+    if (!xyz || !n || !path) {
+        set_err(err, err_size, "path, xyz and n must not be NULL");
+        return PKSS_IO_ERR_ARGUMENT;
+    }
+    *xyz = NULL;
+    *n = 0;
+    if (pkss_io_format_name(fmt) == NULL) {
+        set_err(err, err_size, "%s: unknown format code %d", path, (int)fmt);
+        return PKSS_IO_ERR_ARGUMENT;
+    }
+    is_stdin = strcmp(path, "-") == 0;
+    if (fmt == PKSS_IO_AUTO)
+        fmt = pkss_io_format_from_path(path);
+
+    errno = 0;
+    f = is_stdin ? stdin : fopen(path, "rb");
+    if (!f) {
+        set_err(err, err_size, "%s: cannot open: %s", path,
+                errno ? strerror(errno) : "unknown error");
+        return PKSS_IO_ERR_OPEN;
+    }
+    errno = 0;
+    st = slurp(f, path, &buf, &size, err, err_size);
+    if (!is_stdin)
+        fclose(f);
+    if (st != PKSS_IO_OK)
+        return st;
+
+    if (fmt == PKSS_IO_AUTO) {
+        fmt = pkss_io_format_from_content(buf, size);
+        if (fmt == PKSS_IO_AUTO) {
+            free(buf);
+            set_err(err, err_size,
+                    "%s: cannot tell the format from the extension or the "
+                    "content (known: .ply .pcd .xyz .txt .csv .pts .off .bin "
+                    ".vtk); name it explicitly",
+                    path);
+            return PKSS_IO_ERR_ARGUMENT;
+        }
+    }
+    msg[0] = '\0';
+    ctx.data = buf;
+    ctx.size = size;
+    ctx.err = msg;
+    ctx.err_size = sizeof msg;
+    st = parse(&ctx, fmt, xyz, n);
+    free(buf);
+    if (st != PKSS_IO_OK)
+        set_err(err, err_size, "%s: %s", path, msg);
+    return st;
+}
+
+void pkss_io_free(double *xyz)
+{
+    free(xyz);
+}
+
+/* ============================================================== writing */
+
+static int host_is_little_endian(void)
+{
+    const uint16_t one = 1;
+    unsigned char b;
+    memcpy(&b, &one, 1);
+    return b == 1;
+}
+
+pkss_io_status pkss_io_write_ply(const char *path, const double *xyz,
+                                 size_t n, int ascii, char *err,
+                                 size_t err_size)
+{
+    FILE *f;
+    size_t i;
+    int ok = 1, le = host_is_little_endian();
+
+    if (err && err_size)
+        err[0] = '\0';
+    if (!path || (!xyz && n > 0)) {
+        set_err(err, err_size, "path and xyz must not be NULL");
+        return PKSS_IO_ERR_ARGUMENT;
+    }
+    errno = 0;
+    f = fopen(path, ascii ? "w" : "wb");
+    if (!f) {
+        set_err(err, err_size, "%s: cannot create: %s", path,
+                errno ? strerror(errno) : "unknown error");
+        return PKSS_IO_ERR_OPEN;
+    }
+    if (fprintf(f,
+                "ply\nformat %s 1.0\ncomment written by pkss_io\n"
+                "element vertex %llu\nproperty double x\nproperty double y\n"
+                "property double z\nend_header\n",
+                ascii ? "ascii" : "binary_little_endian",
+                (unsigned long long)n) < 0)
+        ok = 0;
+    for (i = 0; ok && i < n; i++) {
+        if (ascii) {
+            if (fprintf(f, "%.17g %.17g %.17g\n", xyz[3 * i], xyz[3 * i + 1],
+                        xyz[3 * i + 2]) < 0)
+                ok = 0;
+        } else {
+            unsigned char rec[24];
+            int k;
+            memcpy(rec, xyz + 3 * i, 24);
+            if (!le)
+                for (k = 0; k < 3; k++) {
+                    int j;
+                    for (j = 0; j < 4; j++) {
+                        unsigned char t = rec[8 * k + j];
+                        rec[8 * k + j] = rec[8 * k + 7 - j];
+                        rec[8 * k + 7 - j] = t;
+                    }
+                }
+            if (fwrite(rec, 1, 24, f) != 24)
+                ok = 0;
+        }
+    }
+    if (fflush(f) != 0 || ferror(f))
+        ok = 0;
+    if (fclose(f) != 0)
+        ok = 0;
+    if (!ok) {
+        set_err(err, err_size, "%s: write failed: %s", path,
+                errno ? strerror(errno) : "unknown error");
+        return PKSS_IO_ERR_OPEN;
+    }
+    return PKSS_IO_OK;
+}
