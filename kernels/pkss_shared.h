@@ -91,15 +91,17 @@ PKSS_INLINE int pkss_cell_index(float x, float y, float z, int n_az,
     /* Azimuth: phi in [0, pi) when y > 0 or (y == 0 and x >= 0); otherwise
      * rotate by pi (negate) and add n_az/2 bins. Within the half plane,
      * phi >= phi_j  <=>  cross(e_j, v) = cos_j*y - sin_j*x >= 0. */
-    int half = n_az / 2;
+    int n_half = n_az / 2;
     int b_az = 0;
     float vx = x, vy = y;
     if (!(vy > 0.0f || (vy == 0.0f && vx >= 0.0f))) {
         vx = -vx;
         vy = -vy;
-        b_az = half;
+        b_az = n_half;
     }
-    for (int j = 1; j < half; ++j) {
+    /* On the z axis the azimuth is undefined: bin 0 by convention. */
+    int on_axis = (vx == 0.0f && vy == 0.0f);
+    for (int j = 1; j < n_half && !on_axis; ++j) {
         float cj = edges[PKSS_EDGE_AZ_BASE + 2 * (j - 1)];
         float sj = edges[PKSS_EDGE_AZ_BASE + 2 * (j - 1) + 1];
         b_az += (cj * vy - sj * vx >= 0.0f);

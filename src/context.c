@@ -173,7 +173,7 @@ static pkss_status set_numeric(pkss_context *ctx, pkss_param param, double v,
         value = d->def;
     } else {
         PKSS_RETURN_IF(v < d->lo || v > d->hi, ctx, PKSS_ERR_INVALID_ARGUMENT,
-                       "parameter '%s' must be in [%g, %g] (0 = default %g); got %g",
+                       "parameter '%s' must be in [%.15g, %.15g] (0 = default %.15g); got %.15g",
                        d->name, d->lo, d->hi, d->def, v);
         value = v;
     }

@@ -1,0 +1,242 @@
+/* SPDX-License-Identifier: MIT
+ * test_svd3.c -- the 3x3 SVD of kernels/pkss_shared.h (float32, shared by
+ * the C reference and the OpenCL kernels) and the double SVD of
+ * src/geometry.c against LAPACKE_dgesvd on 10^5+ random and near-degenerate
+ * matrices: repeated, zero, rank-1/2 singular values and reflections.
+ */
+#include "support.h"
+
+#include "pkss_internal.h"
+#include "pkss_shared.h"
+
+#include <lapacke.h>
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+static const char *PROGRAM = "test_svd3";
+
+/* Reference singular values by LAPACK, descending. */
+static void lapack_sv(const double *H, double *s)
+{
+    double A[9], U[9], Vt[9], superb[2];
+    memcpy(A, H, sizeof A);
+    lapack_int info = LAPACKE_dgesvd(LAPACK_ROW_MAJOR, 'N', 'N', 3, 3, A, 3, s,
+                                     U, 3, Vt, 3, superb);
+    assert_int_equal(info, 0);
+}
+
+static double det3(const double *H)
+{
+    return H[0] * (H[4] * H[8] - H[5] * H[7]) - H[1] * (H[3] * H[8] - H[5] * H[6]) +
+           H[2] * (H[3] * H[7] - H[4] * H[6]);
+}
+
+/* H = U diag(s) V^T with random orthogonal U, V (possibly reflections). */
+static void compose_matrix(pkss_test_rng *rng, const double *s, int reflect,
+                           double *H)
+{
+    double U[9], V[9];
+    pkss_test_random_rotation(rng, U);
+    pkss_test_random_rotation(rng, V);
+    if (reflect)
+        for (int r = 0; r < 3; ++r)
+            U[3 * r + 2] = -U[3 * r + 2];
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) {
+            double v = 0;
+            for (int k = 0; k < 3; ++k)
+                v += U[3 * i + k] * s[k] * V[3 * j + k];
+            H[3 * i + j] = v;
+        }
+}
+
+typedef struct stats {
+    long count;
+    double max_err_rel;  /* max |sv - ref| / max(ref[0], tiny) */
+    double max_sum_err;  /* max error of s1 + s2 + d s3 (the G argument) */
+    long sign_mismatch;  /* d = sign(det) wrong where |det| is clear */
+} stats;
+
+static void check_one(const double *Hd, stats *st, double tol)
+{
+    float H[9];
+    for (int i = 0; i < 9; ++i)
+        H[i] = (float)Hd[i];
+    /* the reference works on the float-rounded matrix the kernel sees */
+    double Hr[9];
+    for (int i = 0; i < 9; ++i)
+        Hr[i] = (double)H[i];
+    double ref[3];
+    lapack_sv(Hr, ref);
+    float sv[3];
+    pkss_svd3_values(H, sv, NULL);
+    double scale = ref[0] > 1e-30 ? ref[0] : 1e-30;
+    double e = 0;
+    for (int k = 0; k < 3; ++k) {
+        assert_true(sv[k] >= 0.0f);
+        double d = fabs((double)sv[k] - ref[k]) / scale;
+        if (d > e)
+            e = d;
+    }
+    assert_true(sv[0] >= sv[1] && sv[1] >= sv[2]);
+    if (e > st->max_err_rel)
+        st->max_err_rel = e;
+    double det = det3(Hr);
+    float df = pkss_det3(H) < 0.0f ? -1.0f : 1.0f;
+    double dd = det < 0 ? -1.0 : 1.0;
+    if (fabs(det) > 1e-4 * scale * scale * scale && df != dd)
+        st->sign_mismatch++;
+    double sum_ref = ref[0] + ref[1] + dd * ref[2];
+    double sum_f = (double)sv[0] + sv[1] + df * sv[2];
+    /* where det is ~0 the sign is arbitrary but s3 ~ 0, so the sum agrees */
+    double se = fabs(sum_ref - sum_f) / scale;
+    if (se > st->max_sum_err)
+        st->max_sum_err = se;
+    if (e > tol || se > 2 * tol)
+        fail_msg("H = [%g %g %g; %g %g %g; %g %g %g]: sv (%g %g %g) vs LAPACK "
+                 "(%g %g %g), rel err %g",
+                 Hr[0], Hr[1], Hr[2], Hr[3], Hr[4], Hr[5], Hr[6], Hr[7], Hr[8], sv[0],
+                 sv[1], sv[2], ref[0], ref[1], ref[2], e);
+    st->count++;
+}
+
+/* float32 singular values within 2e-6 of sigma_1 (a few float ulps). */
+#define SV_TOL 2e-6
+
+static void test_random_matrices(void **state)
+{
+    (void)state;
+    pkss_test_rng rng = {pkss_test_seed(PROGRAM, 1)};
+    stats st = {0};
+    for (int n = 0; n < 60000; ++n) {
+        double H[9];
+        double mag = pow(10.0, -3.0 + 6.0 * pkss_test_uniform(&rng));
+        for (int i = 0; i < 9; ++i)
+            H[i] = mag * pkss_test_normal(&rng);
+        check_one(H, &st, SV_TOL);
+    }
+    printf("  random: %ld matrices, max rel sv error %.3g, max rel G-sum error %.3g, "
+           "sign mismatches %ld\n",
+           st.count, st.max_err_rel, st.max_sum_err, st.sign_mismatch);
+    assert_int_equal(st.sign_mismatch, 0);
+}
+
+static void test_near_degenerate_matrices(void **state)
+{
+    (void)state;
+    pkss_test_rng rng = {pkss_test_seed(PROGRAM, 2)};
+    stats st = {0};
+    const double tiny[] = {0.0, 1e-12, 1e-7, 1e-4};
+    for (int n = 0; n < 50000; ++n) {
+        double s[3];
+        int kind = n % 8;
+        double a = pkss_test_uniform(&rng) + 0.01;
+        double t = tiny[(n / 8) % 4];
+        switch (kind) {
+        case 0: s[0] = s[1] = s[2] = a; break;                   /* all repeated */
+        case 1: s[0] = s[1] = a; s[2] = 0.3 * a; break;            /* top pair */
+        case 2: s[0] = a; s[1] = s[2] = 0.4 * a; break;            /* bottom pair */
+        case 3: s[0] = a; s[1] = s[2] = t * a; break;              /* rank 1 */
+        case 4: s[0] = a; s[1] = 0.5 * a; s[2] = t * a; break;     /* rank 2 */
+        case 5: s[0] = s[1] = a; s[2] = t * a; break;              /* rank 2, repeated */
+        case 6: s[0] = a; s[1] = a * (1 + 1e-7); s[2] = a * (1 - 1e-7); break; /* clustered */
+        default: s[0] = a; s[1] = 0.7 * a; s[2] = 0.2 * a; break;
+        }
+        /* sort descending for the composed matrix */
+        for (int i = 0; i < 2; ++i)
+            for (int j = 0; j < 2 - i; ++j)
+                if (s[j] < s[j + 1]) {
+                    double x = s[j]; s[j] = s[j + 1]; s[j + 1] = x;
+                }
+        double H[9];
+        compose_matrix(&rng, s, n % 2, H);
+        check_one(H, &st, SV_TOL);
+    }
+    /* exact special matrices */
+    double Z[9] = {0};
+    check_one(Z, &st, SV_TOL);
+    double Id[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    check_one(Id, &st, SV_TOL);
+    double Rf[9] = {1, 0, 0, 0, 1, 0, 0, 0, -1};
+    check_one(Rf, &st, SV_TOL);
+    double R1[9] = {1, 2, 3, 2, 4, 6, 3, 6, 9};
+    check_one(R1, &st, SV_TOL);
+    double D[9] = {3, 0, 0, 0, 0, 0, 0, 0, 2};
+    check_one(D, &st, SV_TOL);
+    printf("  near-degenerate: %ld matrices, max rel sv error %.3g, max rel G-sum error %.3g, "
+           "sign mismatches %ld\n",
+           st.count, st.max_err_rel, st.max_sum_err, st.sign_mismatch);
+    assert_int_equal(st.sign_mismatch, 0);
+    /* a pure reflection: s = (1,1,1), d = -1, so the G argument is 1 */
+    float Rff[9] = {1, 0, 0, 0, 1, 0, 0, 0, -1};
+    assert_float_equal(pkss_measure_from_H(Rff), acosf(1.0f), 1e-6);
+}
+
+/* The double SVD used for O_r and the ICP: reconstruction, orthogonality
+ * and a proper Procrustes rotation, including rank-deficient H. */
+static void test_double_svd_and_procrustes(void **state)
+{
+    (void)state;
+    pkss_test_rng rng = {pkss_test_seed(PROGRAM, 3)};
+    double worst_rec = 0, worst_orth = 0;
+    for (int n = 0; n < 20000; ++n) {
+        double s[3] = {1.0, 0.5 + 0.5 * pkss_test_uniform(&rng), 0.0};
+        int kind = n % 4;
+        s[2] = kind == 0 ? 0.0 : (kind == 1 ? 1e-9 : 0.2 * pkss_test_uniform(&rng));
+        if (kind == 3) s[1] = s[0];
+        double H[9], U[9], S[3], V[9];
+        compose_matrix(&rng, s, n % 2, H);
+        pkss__svd3(H, U, S, V);
+        double ref[3];
+        lapack_sv(H, ref);
+        for (int k = 0; k < 3; ++k)
+            assert_float_equal(S[k], ref[k], 1e-9);
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) {
+                double v = 0, uu = 0, vv = 0;
+                for (int k = 0; k < 3; ++k) {
+                    v += U[3 * i + k] * S[k] * V[3 * j + k];
+                    uu += U[3 * k + i] * U[3 * k + j];
+                    vv += V[3 * k + i] * V[3 * k + j];
+                }
+                double e = fabs(v - H[3 * i + j]);
+                if (e > worst_rec) worst_rec = e;
+                double o = fabs(uu - (i == j)) + fabs(vv - (i == j));
+                if (o > worst_orth) worst_orth = o;
+            }
+        double R[9];
+        pkss__procrustes_rotation(H, R);
+        assert_float_equal(det3(R), 1.0, 1e-9);
+    }
+    printf("  double SVD: max reconstruction error %.3g, max orthogonality error %.3g\n",
+           worst_rec, worst_orth);
+    assert_true(worst_rec < 1e-8);
+    assert_true(worst_orth < 1e-8);
+    /* Procrustes recovers a known rotation from exact correspondences */
+    double Rg[9];
+    pkss_test_random_rotation(&rng, Rg);
+    double H[9] = {0};
+    for (int p = 0; p < 20; ++p) {
+        double x[3] = {pkss_test_normal(&rng), pkss_test_normal(&rng), pkss_test_normal(&rng)};
+        double y[3];
+        pkss__mat3_apply(Rg, x, y);
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 3; ++c)
+                H[3 * r + c] += x[r] * y[c];
+    }
+    double R[9];
+    pkss__procrustes_rotation(H, R);
+    for (int i = 0; i < 9; ++i)
+        assert_float_equal(R[i], Rg[i], 1e-9);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_random_matrices),
+        cmocka_unit_test(test_near_degenerate_matrices),
+        cmocka_unit_test(test_double_svd_and_procrustes),
+    };
+    return cmocka_run_group_tests_name(PROGRAM, tests, NULL, NULL);
+}

@@ -1,0 +1,47 @@
+#!/usr/bin/env bash
+# The README's second command (and what CI runs): the whole test suite.
+#   1. Release build, every ctest program (unit, device on PoCL, slow
+#      end-to-end, CLI), warnings as errors under CI;
+#   2. an AddressSanitizer + UndefinedBehaviorSanitizer build running the
+#      same C tests;
+#   3. the Python package installed with pip into a venv, and its pytest
+#      suite;
+#   4. the benchmark's --quick smoke run.
+# Needs the packages of tools/install-deps.sh.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+ROOT=$PWD
+JOBS=$(nproc)
+WERROR=OFF
+if [ "${CI:-}" = "true" ]; then WERROR=ON; fi
+export POCL_CACHE_DIR="${POCL_CACHE_DIR:-$ROOT/build/pocl-cache}"
+mkdir -p "$POCL_CACHE_DIR"
+
+echo "== [1/4] release build + ctest"
+cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DPKSS_WERROR=$WERROR >/dev/null
+cmake --build build -j"$JOBS"
+ctest --test-dir build --output-on-failure -j"$JOBS"
+
+echo "== [2/4] sanitizer build (ASan + UBSan) + ctest"
+cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPKSS_SANITIZE=ON \
+      -DPKSS_WERROR=$WERROR >/dev/null
+cmake --build build-asan -j"$JOBS"
+# PoCL and the OpenCL ICD loader keep process-lifetime allocations that
+# LeakSanitizer reports; only those are suppressed (tests/lsan.supp).
+ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \
+LSAN_OPTIONS=suppressions=$ROOT/tests/lsan.supp:print_suppressions=0 \
+UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+  ctest --test-dir build-asan --output-on-failure -j"$JOBS" -LE nosan
+
+echo "== [3/4] Python bindings (pip install) + pytest"
+python3 -m venv build/venv
+build/venv/bin/python -m pip install -q --upgrade pip
+build/venv/bin/python -m pip install -q ./bindings/python pytest
+build/venv/bin/python -m pytest bindings/python/tests -q
+
+echo "== [4/4] benchmark smoke run (tools/bench/run.py --quick)"
+if [ -f tools/bench/run.py ]; then
+  build/venv/bin/python -m pip install -q -r tools/bench/requirements-quick.txt 2>/dev/null || true
+  build/venv/bin/python tools/bench/run.py --quick --out build/bench-quick
+fi
+echo "== all test stages passed"
