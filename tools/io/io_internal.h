@@ -97,10 +97,5 @@ pkss_io_status io_read_off(io_ctx *ctx, double **xyz, size_t *n);
 pkss_io_status io_read_kitti(io_ctx *ctx, double **xyz, size_t *n);
 pkss_io_status io_read_vtk(io_ctx *ctx, double **xyz, size_t *n);
 
-/* LZF decompression (PCD binary_compressed). @return the number of bytes
- * written, or 0 on corrupt input / output overflow; *bad_at receives the
- * input offset where decoding failed. */
-size_t io_lzf_decompress(const unsigned char *in, size_t in_len,
-                         unsigned char *out, size_t out_len, size_t *bad_at);
 
 #endif

@@ -441,7 +441,7 @@ pkss_io_status io_read_pcd(io_ctx *ctx, double **xyz, size_t *n)
                              (unsigned long long)usize);
                 goto done;
             }
-            got = io_lzf_decompress(ctx->data + start + 8, (size_t)csize, raw,
+            got = pkss_io_lzf_decompress(ctx->data + start + 8, (size_t)csize, raw,
                                     (size_t)usize, &bad);
             if (got != usize) {
                 st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
@@ -491,7 +491,7 @@ done:
 }
 
 /* LZF decoder (format of liblzf's lzf_d.c, used by PCL), bounds-checked. */
-size_t io_lzf_decompress(const unsigned char *in, size_t in_len,
+size_t pkss_io_lzf_decompress(const unsigned char *in, size_t in_len,
                          unsigned char *out, size_t out_len, size_t *bad_at)
 {
     size_t ip = 0, op = 0;

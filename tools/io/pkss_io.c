@@ -417,14 +417,27 @@ const char *pkss_io_status_name(pkss_io_status s)
 
 /* ============================================================= reading */
 
+/* The prefix the parsers use in their messages. */
+static const char *display_name(pkss_io_format f)
+{
+    switch (f) {
+    case PKSS_IO_PLY: return "PLY";
+    case PKSS_IO_PCD: return "PCD";
+    case PKSS_IO_XYZ: return "XYZ";
+    case PKSS_IO_OFF: return "OFF";
+    case PKSS_IO_KITTI: return "KITTI";
+    case PKSS_IO_VTK: return "VTK";
+    default: return "?";
+    }
+}
+
 static pkss_io_status parse(io_ctx *ctx, pkss_io_format fmt, double **xyz,
                             size_t *n)
 {
     pkss_io_status st;
     if (ctx->size == 0)
         return io_fail(ctx, PKSS_IO_ERR_EMPTY, "%s: the file is empty (0 bytes)",
-                       pkss_io_format_name(fmt) ? pkss_io_format_name(fmt)
-                                                : "?");
+                       display_name(fmt));
     switch (fmt) {
     case PKSS_IO_PLY: st = io_read_ply(ctx, xyz, n); break;
     case PKSS_IO_PCD: st = io_read_pcd(ctx, xyz, n); break;
@@ -444,7 +457,7 @@ static pkss_io_status parse(io_ctx *ctx, pkss_io_format fmt, double **xyz,
         free(*xyz);
         *xyz = NULL;
         st = io_fail(ctx, PKSS_IO_ERR_EMPTY, "%s: the file holds no points",
-                     pkss_io_format_name(fmt));
+                     display_name(fmt));
     }
     return st;
 }
@@ -487,8 +500,13 @@ static pkss_io_status slurp(FILE *f, const char *path, unsigned char **buf,
             hint = -1;
     }
     clearerr(f);
-    if (hint >= 0 && (unsigned long)hint < SIZE_MAX - 1)
-        cap = (size_t)hint + 1; /* +1 to see EOF without a realloc */
+    /* The size is only a hint (+1 to see EOF without a realloc): special
+     * files and directories report nonsense, so start at most at 64 MiB
+     * and grow while data keeps coming. */
+    if (hint >= 0 && (unsigned long)hint < ((unsigned long)1 << 26))
+        cap = (size_t)hint + 1;
+    else if (hint >= 0)
+        cap = (size_t)1 << 26;
     b = (unsigned char *)malloc(cap);
     if (!b) {
         set_err(err, err_size, "%s: out of memory reading %lu bytes", path,

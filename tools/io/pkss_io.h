@@ -40,11 +40,12 @@ extern "C" {
 typedef enum pkss_io_format {
     PKSS_IO_AUTO = 0,  /* by file extension */
     PKSS_IO_PLY = 1,   /* ascii, binary_little_endian, binary_big_endian */
-    PKSS_IO_PCD = 2,   /* ascii, binary (binary_compressed: UNSUPPORTED) */
-    PKSS_IO_XYZ = 3,   /* .xyz .txt .csv .pts: whitespace or comma, header ok */
+    PKSS_IO_PCD = 2,   /* ascii, binary, binary_compressed (LZF) */
+    PKSS_IO_XYZ = 3,   /* .xyz .txt .csv .pts .asc: blank/comma, header ok */
     PKSS_IO_OFF = 4,   /* OFF vertices */
     PKSS_IO_KITTI = 5, /* .bin: float32 x y z intensity records */
-    PKSS_IO_VTK = 6    /* legacy VTK POLYDATA/UNSTRUCTURED POINTS (ascii/binary) */
+    PKSS_IO_VTK = 6    /* legacy VTK POLYDATA/UNSTRUCTURED_GRID/STRUCTURED_GRID
+                          POINTS (ascii/binary big-endian) */
 } pkss_io_format;
 
 typedef enum pkss_io_status {
@@ -86,6 +87,14 @@ pkss_io_status pkss_io_write_ply(const char *path, const double *xyz,
                                  size_t n, int ascii, char *err,
                                  size_t err_size);
 void pkss_io_free(double *xyz);
+
+/* LZF decompression as used by PCD binary_compressed (liblzf format),
+ * bounds-checked. @return the bytes written to out, or 0 on corrupt input
+ * or if out_len is too small; *bad_at receives the input offset where
+ * decoding failed. */
+size_t pkss_io_lzf_decompress(const unsigned char *in, size_t in_len,
+                              unsigned char *out, size_t out_len,
+                              size_t *bad_at);
 
 #ifdef __cplusplus
 }

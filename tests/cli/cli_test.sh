@@ -1,0 +1,251 @@
+#!/usr/bin/env bash
+# SPDX-License-Identifier: MIT
+# cli_test.sh CASE -- one command-line test of pkss-align / pkss-info.
+#
+# Environment (set by tests/cli/CMakeLists.txt):
+#   PKSS_ALIGN, PKSS_INFO   the built tools
+#   PKSS_CHECK              the check_pose helper (check_pose.c)
+#   CLI_WORK                scratch folder (one subfolder per case)
+#   CLI_DATA_DEFAULT        the shared data folder; $PKSS_DATA_DIR wins
+# Exit 0 pass, 1 fail, 77 skip (shared data absent).
+#
+# Run one by hand:  CLI_WORK=/tmp/w PKSS_ALIGN=... bash cli_test.sh missing_file
+set -u
+
+CASE=${1:?usage: cli_test.sh CASE}
+ALIGN=${PKSS_ALIGN:?}
+INFO=${PKSS_INFO:-}
+CHECK=${PKSS_CHECK:-}
+DATA=${PKSS_DATA_DIR:-${CLI_DATA_DEFAULT:-}}
+WORK=${CLI_WORK:-${TMPDIR:-/tmp}/pkss_cli}/$CASE
+rm -rf "$WORK" && mkdir -p "$WORK" || exit 1
+OUT=$WORK/stdout
+ERR=$WORK/stderr
+
+fail() {
+    echo "FAIL [$CASE]: $*"
+    echo "--- stdout:"; head -c 4000 "$OUT" 2>/dev/null; echo
+    echo "--- stderr:"; head -c 4000 "$ERR" 2>/dev/null; echo
+    exit 1
+}
+
+# run EXPECTED_EXIT command args... : runs, checks the exit code and that a
+# failing run printed exactly one "pkss-align: STATUS: detail" line.
+run() {
+    local want=$1; shift
+    echo "+ $*"
+    "$@" >"$OUT" 2>"$ERR" </dev/null
+    local rc=$?
+    echo "exit $rc"
+    [ "$rc" -eq "$want" ] || fail "exit code $rc, expected $want"
+    if [ "$want" -ne 0 ]; then
+        grep -Eq '^pkss-(align|info): [A-Z_]+: .+' "$ERR" ||
+            fail "stderr lacks a 'pkss-align: STATUS_NAME: detail' line"
+    fi
+    if [ "$rc" -gt 5 ]; then fail "undocumented exit code $rc"; fi
+}
+
+stderr_has() { grep -Eq -e "$1" "$ERR" || fail "stderr does not match /$1/"; }
+stdout_has() { grep -Eq -e "$1" "$OUT" || fail "stdout does not match /$1/"; }
+
+need_data() {
+    local f
+    for f in "$@"; do
+        if [ -z "$DATA" ] || [ ! -f "$DATA/$f" ]; then
+            echo "SKIP [$CASE]: shared data file $f not found (set PKSS_DATA_DIR)"
+            exit 77
+        fi
+    done
+}
+
+# A smooth deterministic cloud of N points (a wavy sphere), as .xyz text.
+make_cloud() { # file n [nan_at]
+    awk -v n="$2" -v bad="${3:-0}" 'BEGIN {
+        for (i = 1; i <= n; i++) {
+            u = i * 2.399963; v = 1 - 2 * (i - 0.5) / n; r = sqrt(1 - v * v);
+            s = 1 + 0.2 * sin(3 * u) * r;
+            if (i == bad) print "nan 0 0";
+            else printf "%.9f %.9f %.9f\n", s * r * cos(u), 1.3 * s * r * sin(u), 0.7 * s * v;
+        }
+    }' > "$1"
+}
+
+# ---------------------------------------------------------- usage (2)
+case_usage_no_args()        { run 2 "$ALIGN"; stderr_has 'PKSS_ERR_INVALID_ARGUMENT'; }
+case_usage_one_arg()        { run 2 "$ALIGN" a.ply; }
+case_usage_unknown_option() { run 2 "$ALIGN" a.ply b.ply --frobnicate; stderr_has "unknown option"; }
+case_usage_missing_value()  { run 2 "$ALIGN" a.ply b.ply --steps; stderr_has "needs a value"; }
+case_usage_not_integer()    { run 2 "$ALIGN" a.ply b.ply --steps twelve; stderr_has "not an integer"; }
+case_usage_out_of_range()   { run 2 "$ALIGN" a.ply b.ply --points 10; stderr_has '^pkss-align: PKSS_ERR_INVALID_ARGUMENT: --points 10'; }
+case_usage_odd_steps()      { run 2 "$ALIGN" a.ply b.ply --steps 7; }
+case_usage_bad_backend()    { run 2 "$ALIGN" a.ply b.ply --backend gpu; }
+case_usage_bad_format()     { run 2 "$ALIGN" a.ply b.ply --format obj; stderr_has "unknown format"; }
+case_usage_unknown_param()  { run 2 "$ALIGN" a.ply b.ply --set warp=9; stderr_has PKSS_ERR_UNKNOWN_PARAMETER; }
+case_usage_unknown_extension() {
+    make_cloud "$WORK/cloud.dat" 100
+    run 2 "$ALIGN" "$WORK/cloud.dat" "$WORK/cloud.dat"
+    stderr_has PKSS_IO_ERR_ARGUMENT
+}
+case_help() {
+    run 0 "$ALIGN" --help
+    stdout_has '^Usage: pkss-align SOURCE TARGET'
+    stdout_has 'Exit codes'
+    stdout_has '--points m +3000' # defaults come from pkss_param_bounds
+}
+case_version() { run 0 "$ALIGN" --version; stdout_has 'runtime libpkss [0-9]+\.[0-9]+\.[0-9]+'; }
+case_info() {
+    [ -n "$INFO" ] || fail "PKSS_INFO not set"
+    run 0 "$INFO"
+    stdout_has '^pkss library: [0-9]+\.[0-9]+\.[0-9]+'
+    stdout_has '^build: '
+    stdout_has '^OpenCL devices: '
+    stdout_has 'rotation_steps'
+}
+
+# ------------------------------------------------------------- I/O (3)
+case_missing_file() {
+    make_cloud "$WORK/t.xyz" 100
+    run 3 "$ALIGN" "$WORK/nope.ply" "$WORK/t.xyz"
+    stderr_has "^pkss-align: PKSS_IO_ERR_OPEN: .*nope\.ply"
+}
+case_directory_input() { make_cloud "$WORK/t.xyz" 100; run 3 "$ALIGN" "$WORK" "$WORK/t.xyz" --format xyz; }
+case_unwritable_output() {
+    run 3 "$ALIGN" a.ply b.ply -o "$WORK/no/such/dir/out.ply"
+    stderr_has PKSS_IO_ERR_OPEN
+}
+case_unwritable_json() { run 3 "$ALIGN" a.ply b.ply --json "$WORK"; }
+
+# -------------------------------------------------------- bad data (4)
+case_malformed_lying_header() {
+    printf 'ply\nformat binary_little_endian 1.0\nelement vertex 1000000000000\nproperty float x\nproperty float y\nproperty float z\nend_header\n0123456789ab' > "$WORK/lie.ply"
+    make_cloud "$WORK/t.xyz" 100
+    run 4 "$ALIGN" "$WORK/lie.ply" "$WORK/t.xyz"
+    stderr_has 'PKSS_IO_ERR_FORMAT: .*lie\.ply.*1000000000000 vertices'
+}
+case_malformed_truncated() {
+    { printf 'ply\nformat ascii 1.0\nelement vertex 100\nproperty float x\nproperty float y\nproperty float z\nend_header\n'
+      awk 'BEGIN { for (i = 0; i < 60; i++) print i, i * 2, i * 3 }'; } > "$WORK/cut.ply"
+    make_cloud "$WORK/t.xyz" 100
+    run 4 "$ALIGN" "$WORK/t.xyz" "$WORK/cut.ply"
+    stderr_has PKSS_IO_ERR_FORMAT
+}
+case_malformed_garbage() {
+    awk 'BEGIN { for (i = 0; i < 300; i++) printf "%c", (i * 37 + 1) % 256 }' > "$WORK/garbage.pcd"
+    make_cloud "$WORK/t.xyz" 100
+    run 4 "$ALIGN" "$WORK/garbage.pcd" "$WORK/t.xyz"
+}
+case_malformed_text() {
+    make_cloud "$WORK/s.xyz" 100
+    echo "1.0 2.0 three" >> "$WORK/s.xyz"
+    run 4 "$ALIGN" "$WORK/s.xyz" "$WORK/s.xyz"
+    stderr_has 'line 101'
+}
+case_empty_file() {
+    : > "$WORK/empty.ply"
+    make_cloud "$WORK/t.xyz" 100
+    run 4 "$ALIGN" "$WORK/empty.ply" "$WORK/t.xyz"
+    stderr_has PKSS_IO_ERR_EMPTY
+}
+case_nan_file() {
+    make_cloud "$WORK/s.xyz" 400 17
+    make_cloud "$WORK/t.xyz" 400
+    run 4 "$ALIGN" "$WORK/s.xyz" "$WORK/t.xyz"
+    stderr_has '^pkss-align: PKSS_ERR_NONFINITE: '
+}
+case_nan_stdin() {
+    make_cloud "$WORK/s.xyz" 400 5
+    make_cloud "$WORK/t.xyz" 400
+    echo "+ $ALIGN - t.xyz --source-format xyz < s.xyz"
+    "$ALIGN" - "$WORK/t.xyz" --source-format xyz <"$WORK/s.xyz" >"$OUT" 2>"$ERR"
+    rc=$?
+    [ "$rc" -eq 4 ] || fail "exit code $rc, expected 4"
+    stderr_has PKSS_ERR_NONFINITE
+}
+case_too_few_points() {
+    make_cloud "$WORK/s.xyz" 5
+    make_cloud "$WORK/t.xyz" 400
+    run 4 "$ALIGN" "$WORK/s.xyz" "$WORK/t.xyz"
+    stderr_has '^pkss-align: PKSS_ERR_TOO_FEW_POINTS: '
+}
+case_min_points_option() {
+    make_cloud "$WORK/s.xyz" 200
+    run 4 "$ALIGN" "$WORK/s.xyz" "$WORK/s.xyz" --min-points 500
+    stderr_has PKSS_ERR_TOO_FEW_POINTS
+}
+case_degenerate() {
+    awk 'BEGIN { for (i = 0; i < 200; i++) print i * 0.01, 2 * i * 0.01, 0 }' > "$WORK/line.xyz"
+    make_cloud "$WORK/t.xyz" 400
+    run 4 "$ALIGN" "$WORK/line.xyz" "$WORK/t.xyz"
+    stderr_has PKSS_ERR_DEGENERATE
+}
+
+# ------------------------------------------- registration failure (5)
+case_device_not_found() {
+    make_cloud "$WORK/s.xyz" 400
+    run 5 "$ALIGN" "$WORK/s.xyz" "$WORK/s.xyz" --backend opencl --device no-such-device-xyz \
+        --json "$WORK/r.json"
+    # NO_DEVICE, or UNSUPPORTED when libpkss was built without OpenCL
+    stderr_has '^pkss-align: PKSS_ERR_(NO_DEVICE|UNSUPPORTED): '
+    grep -q '"status": "PKSS_ERR_' "$WORK/r.json" || fail "JSON lacks the failure status"
+}
+
+# ---------------------------------------- real data, ground truth (0)
+# pose CASE: registers SOURCE onto TARGET and compares with the GT.
+pose() { # source target gt max_rot max_scale max_trans [labels...] -- [options]
+    local s=$1 t=$2 g=$3 r=$4 sc=$5 tr=$6; shift 6
+    local labels=()
+    while [ $# -gt 0 ] && [ "$1" != "--" ]; do labels+=("$1"); shift; done
+    [ $# -gt 0 ] && shift
+    need_data "$s" "$t" "$g"
+    run 0 "$ALIGN" "$DATA/$s" "$DATA/$t" --matrix "$WORK/T.txt" --json "$WORK/result.json" -v "$@"
+    cat "$OUT"
+    grep -m1 'times' "$ERR"
+    "$CHECK" pose "$WORK/T.txt" "$DATA/$g" "$DATA/$s" "$DATA/$t" "$r" "$sc" "$tr" "${labels[@]}" ||
+        fail "pose differs from the ground truth"
+}
+case_gt_airplane() {
+    pose modelnet40_pkss/airplane_0001_s.ply modelnet40_pkss/airplane_0001_t.ply \
+         modelnet40_pkss/gt_similarity_s_to_t.txt 2 0.01 0.01
+}
+case_gt_car_scaled() {
+    pose libpointmatcher/car_cloud400.csv libpointmatcher/car_cloud400_scaled.csv \
+         libpointmatcher/car_cloud400_scaled_T.txt 2 0.01 0.01
+}
+# Partial overlap (bun045 sees 91% of bun000): looser rotation bar of 5 deg.
+case_gt_bunny_partial() {
+    pose stanford_bunny/bun045.ply stanford_bunny/bun000.ply \
+         stanford_bunny/gt_poses_4x4.txt 5 0.01 0.01 bun045.ply bun000.ply
+}
+# NaN points dropped on request; outputs: aligned PLY, matrix, JSON.
+case_outputs_drop_nonfinite() {
+    need_data modelnet40_pkss/airplane_0001_s.ply modelnet40_pkss/airplane_0001_t.ply
+    "$CHECK" count "$DATA/modelnet40_pkss/airplane_0001_s.ply" 10001 >/dev/null || fail "cannot read the airplane"
+    awk '{ sub(/\r$/, "") } /end_header/ { body = 1; next } body && NF >= 3 { print $1, $2, $3 }' \
+        "$DATA/modelnet40_pkss/airplane_0001_s.ply" > "$WORK/s.xyz"
+    echo "nan nan nan" >> "$WORK/s.xyz"
+    run 4 "$ALIGN" "$WORK/s.xyz" "$DATA/modelnet40_pkss/airplane_0001_t.ply"
+    run 0 "$ALIGN" "$WORK/s.xyz" "$DATA/modelnet40_pkss/airplane_0001_t.ply" \
+        --drop-nonfinite -o "$WORK/aligned.ply" --ascii --matrix "$WORK/T.txt" --json "$WORK/r.json"
+    head -n 4 "$OUT" > "$WORK/stdout_T.txt"
+    "$CHECK" same "$WORK/stdout_T.txt" "$WORK/T.txt" 1e-7 || fail "printed and written matrices differ"
+    "$CHECK" count "$WORK/aligned.ply" 10002 || fail "aligned cloud"
+    grep -q '"nonfinite": 1' "$WORK/r.json" || fail "JSON lacks source_counts.nonfinite = 1"
+    for key in T_target_source scale rotation translation candidates source_counts timings device; do
+        grep -q "\"$key\"" "$WORK/r.json" || fail "JSON lacks $key"
+    done
+    if command -v python3 >/dev/null 2>&1; then
+        python3 -m json.tool "$WORK/r.json" >/dev/null || fail "invalid JSON"
+    fi
+    "$CHECK" pose "$WORK/T.txt" "$DATA/modelnet40_pkss/gt_similarity_s_to_t.txt" \
+        "$DATA/modelnet40_pkss/airplane_0001_s.ply" "$DATA/modelnet40_pkss/airplane_0001_t.ply" 2 0.01 0.01 ||
+        fail "pose differs from the ground truth"
+    run 0 "$ALIGN" "$WORK/s.xyz" "$DATA/modelnet40_pkss/airplane_0001_t.ply" --drop-nonfinite -q
+    [ "$(wc -l < "$OUT")" -eq 4 ] || fail "-q must print the 4 matrix lines only"
+}
+
+if ! declare -F "case_$CASE" >/dev/null; then
+    echo "unknown case '$CASE'"; exit 2
+fi
+"case_$CASE"
+echo "PASS [$CASE]"
+exit 0
