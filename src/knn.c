@@ -54,33 +54,45 @@ struct pkss__kdtree {
     double lo[3], hi[3]; /* bounding box */
 };
 
-/* Moves the element of rank k (by coordinate dim) of index[lo, hi) into
- * place k, smaller ones before it and larger ones after (Hoare). */
-static void select_kth(const double *xyz, uint32_t *index, size_t lo,
-                       size_t hi, size_t k, int dim)
+static inline void swap_points(pkss__kdtree *t, size_t i, size_t j)
 {
+    double *a = t->pts + 3 * i, *b = t->pts + 3 * j;
+    for (int d = 0; d < 3; ++d) {
+        double x = a[d];
+        a[d] = b[d];
+        b[d] = x;
+    }
+    uint32_t x = t->index[i];
+    t->index[i] = t->index[j];
+    t->index[j] = x;
+}
+
+/* Moves the point of rank k (by coordinate dim) of [lo, hi) into place k,
+ * smaller ones before it and larger ones after (Hoare quickselect on the
+ * tree's own copy of the points, so the scans are sequential). */
+static void select_kth(pkss__kdtree *t, size_t lo, size_t hi, size_t k,
+                       int dim)
+{
+    const double *v = t->pts + dim;
     --hi; /* inclusive */
     while (lo < hi) {
         size_t mid = lo + (hi - lo) / 2;
-        double a = xyz[3 * index[lo] + dim], b = xyz[3 * index[mid] + dim],
-               c = xyz[3 * index[hi] + dim];
+        double a = v[3 * lo], b = v[3 * mid], c = v[3 * hi];
         double pivot = (a < b) ? ((b < c) ? b : (a < c ? c : a))
                                : ((a < c) ? a : (b < c ? c : b));
         size_t i = lo, j = hi;
         for (;;) {
-            while (xyz[3 * index[i] + dim] < pivot)
+            while (v[3 * i] < pivot)
                 ++i;
-            while (xyz[3 * index[j] + dim] > pivot)
+            while (v[3 * j] > pivot)
                 --j;
             if (i >= j)
                 break;
-            uint32_t t = index[i];
-            index[i] = index[j];
-            index[j] = t;
+            swap_points(t, i, j);
             ++i;
             --j;
         }
-        if (i == j) { /* index[i] holds the pivot, in its final place */
+        if (i == j) { /* the pivot itself, in its final place */
             if (k == i)
                 return;
             if (k < i)
@@ -101,8 +113,7 @@ static int cmp_u32(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-static size_t build_node(pkss__kdtree *t, const double *xyz, size_t begin,
-                         size_t end)
+static size_t build_node(pkss__kdtree *t, size_t begin, size_t end)
 {
     size_t id = t->n_nodes++;
     kd_node *node = &t->nodes[id];
@@ -112,10 +123,10 @@ static size_t build_node(pkss__kdtree *t, const double *xyz, size_t begin,
     double lo[3] = {INFINITY, INFINITY, INFINITY};
     double hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (size_t i = begin; i < end; ++i) {
-        const double *p = xyz + 3 * (size_t)t->index[i];
-        for (int d = 0; d < 3; ++d) {
-            if (p[d] < lo[d]) lo[d] = p[d];
-            if (p[d] > hi[d]) hi[d] = p[d];
+        const double *p = t->pts + 3 * i;
+        for (int d = 0; d < 3; ++d) { /* branch-free min/max */
+            lo[d] = p[d] < lo[d] ? p[d] : lo[d];
+            hi[d] = p[d] > hi[d] ? p[d] : hi[d];
         }
     }
     if (id == 0) {
@@ -130,21 +141,21 @@ static size_t build_node(pkss__kdtree *t, const double *xyz, size_t begin,
         /* all points identical: one leaf, by index (see knn_leaf) */
         node->same = 1;
         qsort(t->index + begin, end - begin, sizeof(uint32_t), cmp_u32);
+        /* (the coordinates are all equal, so they need no reordering) */
         return id;
     }
     if (end - begin <= PKSS_KD_LEAF)
         return id;
     size_t mid = begin + (end - begin) / 2;
-    select_kth(xyz, t->index, begin, end, mid, dim);
-    double cut_hi = xyz[3 * (size_t)t->index[mid] + dim];
+    select_kth(t, begin, end, mid, dim);
+    double cut_hi = t->pts[3 * mid + dim];
     double cut_lo = -INFINITY;
     for (size_t i = begin; i < mid; ++i) {
-        double v = xyz[3 * (size_t)t->index[i] + dim];
-        if (v > cut_lo)
-            cut_lo = v;
+        double v = t->pts[3 * i + dim];
+        cut_lo = v > cut_lo ? v : cut_lo;
     }
-    size_t left = build_node(t, xyz, begin, mid);
-    size_t right = build_node(t, xyz, mid, end);
+    size_t left = build_node(t, begin, mid);
+    size_t right = build_node(t, mid, end);
     node = &t->nodes[id];
     node->dim = (uint8_t)dim;
     node->cut_lo = cut_lo;
@@ -179,12 +190,10 @@ pkss_status pkss__kdtree_build(const double *xyz, size_t n,
         pkss__kdtree_free(t);
         return PKSS_ERR_OUT_OF_MEMORY;
     }
+    memcpy(t->pts, xyz, n * 3 * sizeof(double));
     for (size_t i = 0; i < n; ++i)
         t->index[i] = (uint32_t)i;
-    build_node(t, xyz, 0, n);
-    for (size_t i = 0; i < n; ++i)
-        memcpy(t->pts + 3 * i, xyz + 3 * (size_t)t->index[i],
-               3 * sizeof(double));
+    build_node(t, 0, n);
     *out = t;
     return PKSS_OK;
 }
@@ -424,7 +433,9 @@ uint32_t pkss__kdtree_nearest(const pkss__kdtree *t, const double q[3],
 }
 
 /* Queries run in tree order (neighbouring queries touch the same nodes and
- * leaves, which keeps them in cache); results land in input order. */
+ * leaves, which keeps them in cache); results land in input order. xyz
+ * must be the array the tree was built from (only checked for NULL; the
+ * tree's own copy is read). */
 pkss_status pkss__knn_all(const pkss__kdtree *t, const double *xyz, size_t n,
                           size_t k, uint32_t *idx, double *d2)
 {
@@ -436,7 +447,8 @@ pkss_status pkss__knn_all(const pkss__kdtree *t, const double *xyz, size_t n,
         size_t i = t->index[pos];
         uint32_t *ri = idx + k * i;
         double *rd = d2 + k * i;
-        size_t got = pkss__kdtree_knn(t, xyz + 3 * i, k, i, ri, rd);
+        /* the tree's copy of point i: same values, read sequentially */
+        size_t got = pkss__kdtree_knn(t, t->pts + 3 * pos, k, i, ri, rd);
         /* Fewer points than k: repeat the last neighbour so every row is
          * full (callers only need n > k, which validation guarantees). */
         for (size_t j = got; j < k; ++j) {

@@ -7,8 +7,9 @@
  * one of the O(n*m) textbook loop (tests/test_resample.c checks this).
  *
  * Acceleration: the points are copied into the leaf order of a small
- * bounding-volume tree (median splits of the widest axis, leaves of up to
- * FPS_LEAF points). Every node keeps its tight box and the largest current
+ * bounding-volume tree (splits near the median of the widest axis, leaves
+ * of up to FPS_LEAF points). Every node keeps its tight box and the largest
+ * current
  * min-distance of its points (with that point's index). A new sample only
  * visits the nodes whose box could hold a point closer to it than that
  * node's largest min-distance; everything else is skipped whole. The next
@@ -17,8 +18,11 @@
  * are monotone), so skipping never changes a value and the result is
  * bit-identical to the brute-force loop.
  *
- * Cost is about n*log(m) point updates plus the visited nodes: 200k -> 3000
- * takes a few tens of milliseconds.
+ * Cost is about n*log(m) point updates plus the visited nodes, and
+ * O(n log n) for the tree: 30k -> 3000 takes ~15 ms and 200k -> 3000 ~70 ms
+ * of CPU on the 2 GHz Xeon test machine (test_resample prints both).
+ * The bound and the distances use the same expression order; the build
+ * uses -ffp-contract=off (no FMA), which keeps them comparable.
  */
 #include "pkss_internal.h"
 
@@ -43,7 +47,7 @@ typedef struct fps_state {
     uint32_t *where;  /* input index -> leaf-order position */
     uint32_t *leaf;   /* leaf-order position -> leaf node */
     fps_node *nodes;
-    size_t n_nodes;
+    size_t n_nodes, cap;
 } fps_state;
 
 /* (d, i) beats (bd, bi) if farther, or as far with a lower index. */
@@ -52,52 +56,88 @@ static inline int better(double d, uint32_t i, double bd, uint32_t bi)
     return d > bd || (d == bd && i < bi);
 }
 
-/* Moves the element of rank k (by coordinate dim) of order[lo, hi) into
- * place k; smaller ones before it, larger ones after. */
-static void select_rank(const double *xyz, uint32_t *order, size_t lo,
-                        size_t hi, size_t k, int dim)
+static inline void swap_points(fps_state *s, size_t i, size_t j)
 {
-    --hi; /* inclusive */
-    while (lo < hi) {
-        size_t mid = lo + (hi - lo) / 2;
-        double a = xyz[3 * order[lo] + dim], b = xyz[3 * order[mid] + dim],
-               c = xyz[3 * order[hi] + dim];
-        double pivot = (a < b) ? ((b < c) ? b : (a < c ? c : a))
-                               : ((a < c) ? a : (b < c ? c : b));
-        size_t i = lo, j = hi;
-        for (;;) {
-            while (xyz[3 * order[i] + dim] < pivot)
-                ++i;
-            while (xyz[3 * order[j] + dim] > pivot)
-                --j;
-            if (i >= j)
-                break;
-            uint32_t t = order[i];
-            order[i] = order[j];
-            order[j] = t;
-            ++i;
-            --j;
+    double *a = s->pts + 3 * i, *b = s->pts + 3 * j;
+    for (int d = 0; d < 3; ++d) {
+        double t = a[d];
+        a[d] = b[d];
+        b[d] = t;
+    }
+    uint32_t t = s->order[i];
+    s->order[i] = s->order[j];
+    s->order[j] = t;
+}
+
+/* Splits [lo, hi) by coordinate dim around the median of up to 15 evenly
+ * spaced samples, in one Hoare pass over the copied coordinates (the tree
+ * only needs roughly balanced halves, not exact medians). Returns mid with
+ * [lo, mid) <= pivot <= [mid, hi), both sides non-empty; hi - lo >= 2. */
+static size_t split_points(fps_state *s, size_t lo, size_t hi, int dim,
+                           double *pivot_out)
+{
+    const double *v = s->pts + dim;
+    size_t cnt = hi - lo;
+    size_t ns = cnt < 15 ? cnt : 15;
+    double smp[15];
+    for (size_t a = 0; a < ns; ++a) {
+        double x = v[3 * (lo + a * (cnt - 1) / (ns > 1 ? ns - 1 : 1))];
+        size_t b = a;
+        while (b > 0 && smp[b - 1] > x) {
+            smp[b] = smp[b - 1];
+            --b;
         }
-        /* now [lo, j] <= pivot <= [j+1, hi] (Hoare) when i >= j */
-        if (i == j) {
-            /* order[i] == pivot exactly and sits between both parts */
-            if (k == i)
-                return;
-            if (k < i)
-                hi = i - 1;
-            else
-                lo = i + 1;
-        } else if (k <= j) {
-            hi = j;
-        } else {
-            lo = j + 1;
+        smp[b] = x;
+    }
+    double pivot = smp[ns / 2];
+    *pivot_out = pivot;
+    size_t i = lo, j = hi - 1;
+    for (;;) {
+        while (v[3 * i] < pivot)
+            ++i;
+        while (v[3 * j] > pivot)
+            --j;
+        if (i >= j)
+            break;
+        swap_points(s, i, j);
+        ++i;
+        --j;
+    }
+    if (i > j)
+        return j + 1; /* [lo, j] <= pivot <= [j + 1, hi) */
+    /* i == j holds the pivot: either side may take it */
+    return i > lo ? i : i + 1;
+}
+
+static void tight_box(const fps_state *s, uint32_t begin, uint32_t end,
+                      double lo[3], double hi[3])
+{
+    for (int d = 0; d < 3; ++d)
+        lo[d] = hi[d] = s->pts[3 * (size_t)begin + d];
+    for (uint32_t i = begin + 1; i < end; ++i) {
+        const double *p = s->pts + 3 * (size_t)i;
+        for (int d = 0; d < 3; ++d) { /* branch-free min/max */
+            lo[d] = p[d] < lo[d] ? p[d] : lo[d];
+            hi[d] = p[d] > hi[d] ? p[d] : hi[d];
         }
     }
 }
 
-static uint32_t build(fps_state *s, const double *xyz, uint32_t begin,
-                      uint32_t end, uint32_t parent)
+/* Builds the subtree of [begin, end). `box` (lo then hi) is a box known to
+ * contain the points (the parent's, cut at the split): it picks the split
+ * axis, so that only the leaves read their points to get a tight box;
+ * inner boxes are the union of their children's. */
+static uint32_t build(fps_state *s, uint32_t begin, uint32_t end,
+                      uint32_t parent, const double box[6])
 {
+    if (s->n_nodes == s->cap) {
+        fps_node *grown =
+            pkss__realloc(s->nodes, 2 * s->cap * sizeof(fps_node));
+        if (!grown)
+            return UINT32_MAX;
+        s->nodes = grown;
+        s->cap *= 2;
+    }
     uint32_t id = (uint32_t)s->n_nodes++;
     fps_node *nd = &s->nodes[id];
     nd->begin = begin;
@@ -106,35 +146,37 @@ static uint32_t build(fps_state *s, const double *xyz, uint32_t begin,
     nd->parent = parent;
     nd->best_d2 = -1.0;
     nd->best = UINT32_MAX;
-    double lo[3], hi[3];
-    for (int d = 0; d < 3; ++d)
-        lo[d] = hi[d] = xyz[3 * s->order[begin] + d];
-    for (uint32_t i = begin + 1; i < end; ++i) {
-        const double *p = xyz + 3 * s->order[i];
-        for (int d = 0; d < 3; ++d) {
-            if (p[d] < lo[d])
-                lo[d] = p[d];
-            if (p[d] > hi[d])
-                hi[d] = p[d];
-        }
-    }
-    memcpy(nd->lo, lo, sizeof lo);
-    memcpy(nd->hi, hi, sizeof hi);
     int dim = 0;
     for (int d = 1; d < 3; ++d)
-        if (hi[d] - lo[d] > hi[dim] - lo[dim])
+        if (box[3 + d] - box[d] > box[3 + dim] - box[dim])
             dim = d;
-    if (end - begin <= FPS_LEAF || !(hi[dim] > lo[dim])) {
+    if (end - begin <= FPS_LEAF || !(box[3 + dim] > box[dim])) {
+        tight_box(s, begin, end, nd->lo, nd->hi);
         for (uint32_t i = begin; i < end; ++i)
             s->leaf[i] = id;
         return id;
     }
-    uint32_t mid = begin + (end - begin) / 2;
-    select_rank(xyz, s->order, begin, end, mid, dim);
-    uint32_t l = build(s, xyz, begin, mid, id);
-    uint32_t r = build(s, xyz, mid, end, id);
-    s->nodes[id].left = l;
-    s->nodes[id].right = r;
+    double pivot;
+    uint32_t mid = (uint32_t)split_points(s, begin, end, dim, &pivot);
+    double sub[6];
+    memcpy(sub, box, sizeof sub);
+    sub[3 + dim] = pivot;
+    uint32_t l = build(s, begin, mid, id, sub);
+    if (l == UINT32_MAX)
+        return UINT32_MAX;
+    memcpy(sub, box, sizeof sub);
+    sub[dim] = pivot;
+    uint32_t r = build(s, mid, end, id, sub);
+    if (r == UINT32_MAX)
+        return UINT32_MAX;
+    nd = &s->nodes[id];
+    nd->left = l;
+    nd->right = r;
+    const fps_node *a = &s->nodes[l], *c = &s->nodes[r];
+    for (int d = 0; d < 3; ++d) {
+        nd->lo[d] = a->lo[d] < c->lo[d] ? a->lo[d] : c->lo[d];
+        nd->hi[d] = a->hi[d] > c->hi[d] ? a->hi[d] : c->hi[d];
+    }
     return id;
 }
 
@@ -180,18 +222,27 @@ static void update(fps_state *s, uint32_t id, const double q[3])
     if (lb >= nd->best_d2)
         return; /* no point of this node gets closer than its own min */
     if (!nd->left) {
-        int changed = 0;
+        /* lower the min-distances and find the new leaf maximum in one
+         * pass (min/max written branch-free) */
+        double bd = -1.0;
+        uint32_t bi = UINT32_MAX;
         for (uint32_t i = nd->begin; i < nd->end; ++i) {
             const double *p = s->pts + 3 * (size_t)i;
             double dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
             double d2 = dx * dx + dy * dy + dz * dz;
-            if (d2 < s->mind[i]) {
-                s->mind[i] = d2;
-                changed = 1;
+            double m = s->mind[i];
+            m = d2 < m ? d2 : m;
+            s->mind[i] = m;
+            if (m >= bd) {
+                uint32_t ix = s->order[i];
+                if (m > bd || ix < bi) {
+                    bd = m;
+                    bi = ix;
+                }
             }
         }
-        if (changed)
-            leaf_best(s, nd);
+        nd->best_d2 = bd;
+        nd->best = bi;
         return;
     }
     update(s, nd->left, q);
@@ -266,23 +317,22 @@ pkss_status pkss__fps(const double *xyz, size_t n, size_t m, uint32_t *idx,
     s.order = pkss__malloc(n * sizeof(uint32_t));
     s.where = pkss__malloc(n * sizeof(uint32_t));
     s.leaf = pkss__malloc(n * sizeof(uint32_t));
-    /* Inner nodes have > FPS_LEAF points and split them in halves, so a
-     * leaf holds >= FPS_LEAF/2 points (or is the root): at most
-     * n/(FPS_LEAF/2) leaves and twice that many nodes. */
-    size_t cap = 2 * (n / (FPS_LEAF / 2)) + 3;
-    if (cap > 2 * n + 1)
-        cap = 2 * n + 1;
-    s.nodes = pkss__malloc(cap * sizeof(fps_node));
-    if (!s.pts || !s.mind || !s.order || !s.where || !s.leaf || !s.nodes) {
-        state_free(&s);
-        return PKSS_ERR_OUT_OF_MEMORY;
-    }
+    /* Roughly balanced splits: about 2n / (FPS_LEAF / 2) nodes; the array
+     * grows if the splits are lopsided. */
+    s.cap = 4 * (n / FPS_LEAF) + 16;
+    s.nodes = pkss__malloc(s.cap * sizeof(fps_node));
+    pkss_status st = PKSS_ERR_OUT_OF_MEMORY;
+    if (!s.pts || !s.mind || !s.order || !s.where || !s.leaf || !s.nodes)
+        goto cleanup;
 
+    memcpy(s.pts, xyz, n * 3 * sizeof(double));
     for (size_t i = 0; i < n; ++i)
         s.order[i] = (uint32_t)i;
-    build(&s, xyz, 0, (uint32_t)n, UINT32_MAX);
+    double box[6];
+    tight_box(&s, 0, (uint32_t)n, box, box + 3);
+    if (build(&s, 0, (uint32_t)n, UINT32_MAX, box) == UINT32_MAX)
+        goto cleanup; /* out of memory growing the node array */
     for (size_t i = 0; i < n; ++i) {
-        memcpy(s.pts + 3 * i, xyz + 3 * (size_t)s.order[i], 3 * sizeof(double));
         s.where[s.order[i]] = (uint32_t)i;
         s.mind[i] = INFINITY;
     }
@@ -302,6 +352,9 @@ pkss_status pkss__fps(const double *xyz, size_t n, size_t m, uint32_t *idx,
         next = s.nodes[0].best;
     }
     *m_out = m;
+    st = PKSS_OK;
+
+cleanup:
     state_free(&s);
-    return PKSS_OK;
+    return st;
 }

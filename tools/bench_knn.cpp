@@ -2,16 +2,16 @@
  * bench_knn.cpp -- our kd-tree (src/knn.c) against nanoflann on real scans.
  * NOT part of the default build (it is C++ and needs libnanoflann-dev).
  *
- * Build and run from the repository root (nanoflann: apt-get install
- * libnanoflann-dev):
+ * Build and run (paths for a checkout at /work/main; nanoflann:
+ * apt-get install libnanoflann-dev):
  *
  *   mkdir -p /tmp/bench_knn && cd /tmp/bench_knn &&
  *   cc -std=c11 -O2 -ffp-contract=off -I/work/main/include -I/work/main/src \
  *      -c /work/main/src/knn.c /work/main/src/alloc.c /work/main/src/thin.c &&
- *   cc -std=c11 -O2 -I/work/main/tools/io -c /work/main/tools/io/*.c &&
+ *   cc -std=c11 -O2 -I/work/main/tools/io -c /work/main/tools/io/[a-z]*.c &&
  *   g++ -std=c++17 -O2 -I/work/main/include -I/work/main/src \
  *      -I/work/main/tools/io /work/main/tools/bench_knn.cpp *.o -lm \
- *      -o bench_knn && ./bench_knn [cloud.ply] [runs]
+ *      -o bench_knn && ./bench_knn [cloud.ply|""] [runs]
  *
  * Default cloud: the 3DMatch fragment 3dmatch/7-scenes-redkitchen/
  * cloud_bin_0.ply (258k points) under PKSS_DATA_DIR (default
@@ -19,8 +19,22 @@
  * 30k and 3k points. For each size: tree build time, and the time of the
  * all-points 12-NN query (self excluded: ours with `skip`, nanoflann with
  * k = 13 and the self hit dropped), medians of `runs` (default 5) runs,
- * single thread, CPU time. Both trees use leaves of 10 points. The
- * neighbour distances of both are compared as a sanity check.
+ * single thread, CPU time; both write n x 12 indices and squared
+ * distances. Both trees use leaves of 10 points. The neighbour distances of
+ * both are compared as a sanity check; runs alternate between the two.
+ *
+ * Measured on the project machine (2-core 2 GHz Xeon VM, shared and
+ * loaded, so +-15 % run to run; nanoflann 1.4.2 from Debian), CPU ms,
+ * medians of 5, two invocations:
+ *        n | ours build   query | nanoflann build   query
+ *   202794 |     74-78  425-438 |          106-110  409-418
+ *    30700 |        10       52 |               14    60-62
+ *     3089 |       0.8  4.2-4.7 |              1.2  5.1-5.8
+ * Ours builds ~30 % faster everywhere and queries 13-18 % faster at 3k and
+ * 30k and ~4 % slower at 200k: at least as fast overall for the pipeline,
+ * which builds one tree per culling step and runs one all-points 12-NN on
+ * it. That, plus the exact (distance, index) tie order and the O(k) leaves
+ * for stacks of identical points, is why src/knn.c stays our own.
  */
 #include <nanoflann.hpp>
 
@@ -70,6 +84,12 @@ void bench(const double *xyz, size_t n, int runs)
     std::vector<uint32_t> idx(n * k);
     std::vector<double> d2(n * k);
     std::vector<double> ours_build, ours_query, nano_build, nano_query;
+    std::vector<uint32_t> nidx(k + 1);
+    std::vector<double> nd2(k + 1), nano_d2(n * k);
+    std::vector<uint32_t> nano_idx(n * k);
+    Cloud cloud{xyz, n};
+    /* Runs alternate between the two so that both see the same machine
+     * load (the medians are still noisy on a shared machine). */
     for (int r = 0; r < runs; ++r) {
         double t0 = cpu_seconds();
         pkss__kdtree *tree = nullptr;
@@ -83,24 +103,22 @@ void bench(const double *xyz, size_t n, int runs)
         pkss__kdtree_free(tree);
         ours_build.push_back(t1 - t0);
         ours_query.push_back(t2 - t1);
-    }
-    std::vector<uint32_t> nidx(k + 1);
-    std::vector<double> nd2(k + 1), nano_d2(n * k);
-    Cloud cloud{xyz, n};
-    for (int r = 0; r < runs; ++r) {
-        double t0 = cpu_seconds();
-        NanoTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
-        tree.buildIndex();
-        double t1 = cpu_seconds();
+
+        t0 = cpu_seconds();
+        NanoTree nano(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+        nano.buildIndex();
+        t1 = cpu_seconds();
         for (size_t i = 0; i < n; ++i) {
-            size_t got = tree.knnSearch(xyz + 3 * i, k + 1, nidx.data(),
+            size_t got = nano.knnSearch(xyz + 3 * i, k + 1, nidx.data(),
                                         nd2.data());
             size_t w = 0;
             for (size_t j = 0; j < got && w < k; ++j)
-                if (nidx[j] != i)
+                if (nidx[j] != i) {
+                    nano_idx[k * i + w] = nidx[j];
                     nano_d2[k * i + w++] = nd2[j];
+                }
         }
-        double t2 = cpu_seconds();
+        t2 = cpu_seconds();
         nano_build.push_back(t1 - t0);
         nano_query.push_back(t2 - t1);
     }
@@ -121,7 +139,7 @@ void bench(const double *xyz, size_t n, int runs)
 int main(int argc, char **argv)
 {
     std::string path;
-    if (argc > 1) {
+    if (argc > 1 && argv[1][0]) {
         path = argv[1];
     } else {
         const char *dir = std::getenv("PKSS_DATA_DIR");
