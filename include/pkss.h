@@ -320,11 +320,12 @@ typedef struct pkss_cloud pkss_cloud;
 typedef struct pkss_counts {
     uint64_t input;       /* n given */
     uint64_t nonfinite;   /* dropped as NaN/Inf (drop_nonfinite on) */
-    uint64_t thinned;     /* after voxel thinning (== finite if none) */
+    uint64_t thinned;     /* after dropping duplicates and voxel thinning */
     uint64_t after_mutual;/* after mutual-kNN culling */
     uint64_t after_stat;  /* after the statistical filter */
     uint64_t resampled;   /* m, or fewer if the cleaned cloud is smaller */
     uint64_t features;    /* feature points */
+    uint64_t duplicates;  /* exact duplicate points dropped (before thinning) */
 } pkss_counts;
 
 /** pkss_cloud_create() :

@@ -310,6 +310,28 @@ pkss_status pkss__cloud_build(pkss_context *ctx, const double *xyz, size_t n,
     unsigned char *keep = NULL;
     uint32_t *sel = NULL;
 
+    /* Exact duplicates carry no shape and defeat the kNN statistics of the
+     * outlier filters (see dedupe.c). */
+    keep = pkss__malloc(np ? np : 1);
+    if (!keep)
+        goto oom;
+    size_t n_unique = np;
+    st = pkss__dedupe(pts, np, keep, &n_unique);
+    if (st != PKSS_OK)
+        goto oom;
+    if (n_unique < np) {
+        c->counts.duplicates = np - n_unique;
+        np = compact(pts, np, keep);
+    }
+    if (np < (size_t)p->min_points) {
+        st = pkss__fail(ctx, PKSS_ERR_TOO_FEW_POINTS,
+                        "%s cloud has %zu distinct points (%llu exact duplicates "
+                        "dropped); at least %d are needed (min_points)",
+                        which, np, (unsigned long long)c->counts.duplicates,
+                        p->min_points);
+        goto fail;
+    }
+
     /* SPEC 2.1: thin huge inputs first. */
     if (np > (size_t)p->max_raw_points) {
         double *thin = NULL;
@@ -325,9 +347,6 @@ pkss_status pkss__cloud_build(pkss_context *ctx, const double *xyz, size_t n,
     c->counts.thinned = np;
 
     /* SPEC 2.2-2.3: outliers go before resampling (FPS would promote them). */
-    keep = pkss__malloc(np ? np : 1);
-    if (!keep)
-        goto oom;
     if (p->cull_mutual && np > PKSS_KNN_K + 1) {
         st = pkss__cull_mutual(pts, np, PKSS_KNN_K, keep);
         if (st != PKSS_OK)

@@ -101,7 +101,9 @@ size_t pkss__kdtree_knn(const pkss__kdtree *tree, const double q[3], size_t k,
 /* Nearest neighbour within sqrt(max_d2); returns index or UINT32_MAX. */
 uint32_t pkss__kdtree_nearest(const pkss__kdtree *tree, const double q[3],
                               double max_d2, double *d2);
-/* kNN of every point of the tree itself (self excluded): idx/d2 are n*k. */
+/* kNN of every point of the tree itself (self excluded): idx/d2 are n*k.
+ * xyz must be the array the tree was built from (n = its size); the tree's
+ * own copy of the points is read. */
 pkss_status pkss__knn_all(const pkss__kdtree *tree, const double *xyz,
                           size_t n, size_t k, uint32_t *idx, double *d2);
 
@@ -109,6 +111,9 @@ pkss_status pkss__knn_all(const pkss__kdtree *tree, const double *xyz,
 /* Each step takes an array of n points (double xyz) and writes a keep mask
  * or a new array. They never fail except for out-of-memory. */
 
+/* keep[i] = 0 for a repeat of an earlier point's exact position. */
+pkss_status pkss__dedupe(const double *xyz, size_t n, unsigned char *keep,
+                         size_t *n_unique);
 /* SPEC 2.1: voxel-thin to about `target` points. *out is pkss__malloc'd. */
 pkss_status pkss__thin_voxel(const double *xyz, size_t n, size_t target,
                              uint64_t seed, double **out, size_t *n_out);

@@ -83,6 +83,21 @@ static void test_bad_inputs(void **state)
     assert_int_equal(res.target_counts.nonfinite, 1);
     assert_int_equal(pkss_context_set_int(ctx, PKSS_PARAM_DROP_NONFINITE, PKSS_SWITCH_OFF), PKSS_OK);
 
+    /* exact duplicates are dropped and counted (also -0.0 == +0.0) */
+    double *dup = malloc(2 * n * 3 * sizeof(double));
+    memcpy(dup, good, n * 3 * sizeof(double));
+    memcpy(dup + 3 * n, good, n * 3 * sizeof(double));
+    dup[3 * n] = good[0] == 0.0 ? -0.0 : good[0];
+    assert_int_equal(pkss_register(ctx, dup, 2 * n, good, n, &res), PKSS_OK);
+    assert_int_equal(res.source_counts.duplicates, n);
+    assert_int_equal(res.source_counts.thinned, n);
+    assert_int_equal(res.target_counts.duplicates, 0);
+    /* 40 distinct points, each repeated 20 times: too few after dropping */
+    for (size_t i = 0; i < n; ++i)
+        memcpy(dup + 3 * i, good + 3 * (i % 20), 3 * sizeof(double));
+    expect(ctx, pkss_register(ctx, dup, n, good, n, &res), PKSS_ERR_TOO_FEW_POINTS,
+           "20 distinct points");
+    free(dup);
     /* identical, collinear, coplanar */
     for (size_t i = 0; i < n; ++i) {
         bad[3 * i] = 1.5; bad[3 * i + 1] = -2; bad[3 * i + 2] = 7;
