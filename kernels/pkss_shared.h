@@ -15,12 +15,33 @@
  *   rep table     : float[n_cells][4] = (x, y, z, r^2); r^2 < 0 means the
  *                   cell is empty. One table per binning (source rotation
  *                   or template offset), contour and feature alike.
+ *
+ * Lanes. The binning, the SVD and G are written once over "lanes":
+ * pkss_vf / pkss_vi hold PKSS_VW floats / ints and every data-dependent
+ * branch is a per-lane mask (PKSS_SEL), so that a kernel evaluates PKSS_VW
+ * candidates with one SIMD instruction stream. In C (and in OpenCL with
+ * PKSS_VW = 1, used on GPUs) a lane is a plain float/int, a mask is 0/1 and
+ * PKSS_SEL is `?:`, so the reference runs exactly the scalar operations it
+ * always ran; in OpenCL with PKSS_VW = 2..16 they are floatN/intN with
+ * 0/-1 masks. Each lane performs the same float operations in the same
+ * order as the scalar code, so lanes and the reference agree bit for bit
+ * (a masked-off update leaves a value unchanged; a masked sum adds +0.0f,
+ * which cannot change a sum that starts at +0.0f). The strided entry points
+ * take the layouts the kernels use (structure-of-arrays with lanes
+ * contiguous); the plain ones are the C layouts above.
  * =========================================================================
  */
 #ifndef PKSS_SHARED_H
 #define PKSS_SHARED_H
 
-#ifdef __OPENCL_VERSION__
+/* OpenCL C: __OPENCL_C_VERSION__ (1.2+) is defined by every compiler, also
+ * an offline clang -x cl without an OpenCL target, which does not define
+ * __OPENCL_VERSION__. */
+#if defined(__OPENCL_VERSION__) || defined(__OPENCL_C_VERSION__)
+#define PKSS_OPENCL_C 1
+#endif
+
+#ifdef PKSS_OPENCL_C
 #pragma OPENCL FP_CONTRACT OFF
 #define PKSS_GLOBAL __global
 #define PKSS_CONST __global const
@@ -38,6 +59,57 @@
 #define PKSS_FABS(x) fabsf(x)
 #define PKSS_ACOS(x) acosf(x)
 #endif
+
+/* Lanes (see the banner). PKSS_VW > 1 only in OpenCL. */
+#ifndef PKSS_VW
+#define PKSS_VW 1
+#endif
+#if defined(PKSS_OPENCL_C) && PKSS_VW > 1
+#define PKSS_CAT2(a, b) a##b
+#define PKSS_CAT(a, b) PKSS_CAT2(a, b)
+typedef PKSS_CAT(float, PKSS_VW) pkss_vf;
+typedef PKSS_CAT(int, PKSS_VW) pkss_vi;
+#define PKSS_SEL(m, a, b) select((b), (a), (m)) /* m ? a : b, per lane */
+/* any(m) by an OR tree of vector halves: PoCL's any() extracts every lane. */
+#if PKSS_VW == 16
+#define PKSS_ANY(m) pkss_any16(m)
+inline __attribute__((always_inline)) int pkss_any16(int16 m)
+{
+    int8 a = m.lo | m.hi;
+    int4 b = a.lo | a.hi;
+    int2 c = b.lo | b.hi;
+    return (c.x | c.y) < 0;
+}
+#elif PKSS_VW == 8
+#define PKSS_ANY(m) pkss_any8(m)
+inline __attribute__((always_inline)) int pkss_any8(int8 m)
+{
+    int4 b = m.lo | m.hi;
+    int2 c = b.lo | b.hi;
+    return (c.x | c.y) < 0;
+}
+#else
+#define PKSS_ANY(m) any(m)
+#endif
+#define PKSS_TO_VF(k) PKSS_CAT(convert_float, PKSS_VW)(k)
+/* PKSS_VW consecutive floats p[i .. i+PKSS_VW-1] as lanes, and back */
+#define PKSS_LOADV(p, i) PKSS_CAT(vload, PKSS_VW)(0, (p) + (i))
+#define PKSS_STOREV(v, p) PKSS_CAT(vstore, PKSS_VW)((v), 0, (p))
+#else
+typedef float pkss_vf;
+typedef int pkss_vi;
+#define PKSS_SEL(m, a, b) ((m) ? (a) : (b))
+#define PKSS_ANY(m) (m)
+#define PKSS_TO_VF(k) ((float)(k))
+#define PKSS_LOADV(p, i) ((p)[i])
+#define PKSS_STOREV(v, p) ((p)[0] = (v))
+#endif
+/* Broadcasts; PKSS_TRUE is an all-lanes-on mask. */
+#define PKSS_VF(x) ((pkss_vf)(x))
+#define PKSS_VI(x) ((pkss_vi)(x))
+#define PKSS_TRUE PKSS_VI(-1)
+/* 1 where m is set, else 0 */
+#define PKSS_ONE_IF(m) PKSS_SEL((m), PKSS_VI(1), PKSS_VI(0))
 
 #define PKSS_PI_F 3.14159265358979323846f
 #define PKSS_HALF_PI_F 1.57079632679489661923f
@@ -65,53 +137,48 @@
 /* ---------------------------------------------------------------------- */
 /* Cell index (SPEC 3): n_el = n_az/2 elevation bins x n_az azimuth bins,  */
 /* index = n_az * b_theta + b_phi. Comparisons against precomputed edges   */
-/* only; no acos/atan2, no sqrt. Returns -1 for r = 0.                     */
+/* only; no acos/atan2, no sqrt. Returns -1 for r = 0. Per lane.           */
 /* ---------------------------------------------------------------------- */
-PKSS_INLINE int pkss_cell_index(float x, float y, float z, int n_az,
-                                PKSS_CONST float *edges)
+PKSS_INLINE pkss_vi pkss_cell_index(pkss_vf x, pkss_vf y, pkss_vf z, int n_az,
+                                    PKSS_CONST float *edges)
 {
-    float r2 = x * x + y * y + z * z;
-    if (!(r2 > 0.0f))
-        return -1;
+    pkss_vf r2 = x * x + y * y + z * z;
     int n_el = n_az / 2;
     /* Elevation: theta >= theta_j  <=>  z <= r * cos(theta_j), decided on
      * squares so no sqrt is needed. */
-    int b_el = 0;
+    pkss_vi b_el = PKSS_VI(0);
     for (int j = 1; j < n_el; ++j) {
         float c = edges[j];
-        int beyond;
+        pkss_vi beyond;
         if (c > 0.0f)
-            beyond = (z <= 0.0f) || (z * z <= r2 * (c * c));
+            beyond = (z <= 0.0f) | (z * z <= r2 * (c * c));
         else if (c < 0.0f)
-            beyond = (z < 0.0f) && (z * z >= r2 * (c * c));
+            beyond = (z < 0.0f) & (z * z >= r2 * (c * c));
         else
             beyond = (z <= 0.0f);
-        b_el += beyond;
+        b_el = b_el + PKSS_ONE_IF(beyond);
     }
     /* Azimuth: phi in [0, pi) when y > 0 or (y == 0 and x >= 0); otherwise
      * rotate by pi (negate) and add n_az/2 bins. Within the half plane,
      * phi >= phi_j  <=>  cross(e_j, v) = cos_j*y - sin_j*x >= 0. */
     int n_half = n_az / 2;
-    int b_az = 0;
-    float vx = x, vy = y;
-    if (!(vy > 0.0f || (vy == 0.0f && vx >= 0.0f))) {
-        vx = -vx;
-        vy = -vy;
-        b_az = n_half;
-    }
+    pkss_vi flip = !((y > 0.0f) | ((y == 0.0f) & (x >= 0.0f)));
+    pkss_vf vx = PKSS_SEL(flip, -x, x);
+    pkss_vf vy = PKSS_SEL(flip, -y, y);
+    pkss_vi b_az = PKSS_SEL(flip, PKSS_VI(n_half), PKSS_VI(0));
     /* On the z axis the azimuth is undefined: bin 0 by convention. */
-    int on_axis = (vx == 0.0f && vy == 0.0f);
-    for (int j = 1; j < n_half && !on_axis; ++j) {
+    pkss_vi off_axis = !((vx == 0.0f) & (vy == 0.0f));
+    for (int j = 1; j < n_half; ++j) {
         float cj = edges[PKSS_EDGE_AZ_BASE + 2 * (j - 1)];
         float sj = edges[PKSS_EDGE_AZ_BASE + 2 * (j - 1) + 1];
-        b_az += (cj * vy - sj * vx >= 0.0f);
+        b_az = b_az + PKSS_ONE_IF((cj * vy - sj * vx >= 0.0f) & off_axis);
     }
-    return n_az * b_el + b_az;
+    return PKSS_SEL(r2 > 0.0f, n_az * b_el + b_az, PKSS_VI(-1));
 }
 
 /* Rotates (x,y,z) by the row-major 3x3 R about the origin. */
-PKSS_INLINE void pkss_rotate(const float *R, float x, float y, float z,
-                             float *ox, float *oy, float *oz)
+PKSS_INLINE void pkss_rotate(const float *R, pkss_vf x, pkss_vf y, pkss_vf z,
+                             pkss_vf *ox, pkss_vf *oy, pkss_vf *oz)
 {
     *ox = R[0] * x + R[1] * y + R[2] * z;
     *oy = R[3] * x + R[4] * y + R[5] * z;
@@ -121,124 +188,182 @@ PKSS_INLINE void pkss_rotate(const float *R, float x, float y, float z,
 /* ---------------------------------------------------------------------- */
 /* Binning (SPEC 3): representative of a cell = the point farthest from   */
 /* the centre (first index wins ties). Points are rotated by R about the  */
-/* origin, then taken relative to centre c. reps gets n_cells x 4 floats. */
+/* origin, then taken relative to centre c.                               */
+/* Strided layouts: coordinate d of point i is pts[d*dstride + i*istride]; */
+/* component k of cell c is reps[(4*c + k) * rstride]. With PKSS_VW > 1   */
+/* the lanes are PKSS_VW consecutive points (istride must be 1 and pts    */
+/* readable up to n rounded up to PKSS_VW); the cells are then updated    */
+/* lane after lane, in point order, as the scalar loop does.              */
 /* ---------------------------------------------------------------------- */
-PKSS_INLINE void pkss_bin_points(PKSS_CONST float *pts, int n,
-                                 const float *R, float cx, float cy, float cz,
-                                 int n_az, PKSS_CONST float *edges,
-                                 PKSS_GLOBAL float *reps)
+PKSS_INLINE void pkss_bin_points_strided(PKSS_CONST float *pts, int dstride,
+                                         int istride, int n, const float *R,
+                                         float cx, float cy, float cz,
+                                         int n_az, PKSS_CONST float *edges,
+                                         PKSS_GLOBAL float *reps, int rstride)
 {
     int n_cells = n_az * (n_az / 2);
     for (int c = 0; c < n_cells; ++c) {
-        reps[4 * c + 0] = 0.0f;
-        reps[4 * c + 1] = 0.0f;
-        reps[4 * c + 2] = 0.0f;
-        reps[4 * c + 3] = -1.0f;
+        reps[(4 * c + 0) * rstride] = 0.0f;
+        reps[(4 * c + 1) * rstride] = 0.0f;
+        reps[(4 * c + 2) * rstride] = 0.0f;
+        reps[(4 * c + 3) * rstride] = -1.0f;
     }
-    for (int i = 0; i < n; ++i) {
-        float x, y, z;
-        pkss_rotate(R, pts[3 * i], pts[3 * i + 1], pts[3 * i + 2], &x, &y, &z);
-        x -= cx;
-        y -= cy;
-        z -= cz;
-        int c = pkss_cell_index(x, y, z, n_az, edges);
-        if (c < 0)
-            continue;
-        float r2 = x * x + y * y + z * z;
-        if (r2 > reps[4 * c + 3]) {
-            reps[4 * c + 0] = x;
-            reps[4 * c + 1] = y;
-            reps[4 * c + 2] = z;
-            reps[4 * c + 3] = r2;
+    for (int i0 = 0; i0 < n; i0 += PKSS_VW) {
+        pkss_vf x, y, z;
+        pkss_rotate(R, PKSS_LOADV(pts, i0 * istride),
+                    PKSS_LOADV(pts, dstride + i0 * istride),
+                    PKSS_LOADV(pts, 2 * dstride + i0 * istride), &x, &y, &z);
+        x = x - cx;
+        y = y - cy;
+        z = z - cz;
+        pkss_vi cell = pkss_cell_index(x, y, z, n_az, edges);
+        pkss_vf r2 = x * x + y * y + z * z;
+        float xa[PKSS_VW], ya[PKSS_VW], za[PKSS_VW], ra[PKSS_VW];
+        int ca[PKSS_VW];
+        PKSS_STOREV(x, xa);
+        PKSS_STOREV(y, ya);
+        PKSS_STOREV(z, za);
+        PKSS_STOREV(r2, ra);
+        PKSS_STOREV(cell, ca);
+        int lanes = n - i0 < PKSS_VW ? n - i0 : PKSS_VW;
+        for (int l = 0; l < lanes; ++l) {
+            int c = ca[l];
+            if (c < 0)
+                continue;
+            if (ra[l] > reps[(4 * c + 3) * rstride]) {
+                reps[(4 * c + 0) * rstride] = xa[l];
+                reps[(4 * c + 1) * rstride] = ya[l];
+                reps[(4 * c + 2) * rstride] = za[l];
+                reps[(4 * c + 3) * rstride] = ra[l];
+            }
         }
     }
+}
+
+/* Occupied cells of a (strided) rep table. */
+PKSS_INLINE int pkss_count_occupied_strided(PKSS_CONST float *reps,
+                                            int n_cells, int rstride)
+{
+    int k = 0;
+    for (int c = 0; c < n_cells; ++c)
+        k += reps[(4 * c + 3) * rstride] > 0.0f;
+    return k;
 }
 
 /* ---------------------------------------------------------------------- */
 /* 3x3 SVD (SPEC 4.2). Cyclic Jacobi on the symmetric S = H^T H gives V;   */
 /* the singular values are the column norms of B = H V, which keeps small */
 /* singular values accurate (sqrt of eigenvalues would lose half the      */
-/* digits). Sorted descending, all >= 0.                                  */
+/* digits). Sorted descending, all >= 0. Lanes where `active` is off are  */
+/* left as they are (a converged lane stops, as the scalar loop breaks).  */
 /* ---------------------------------------------------------------------- */
-PKSS_INLINE void pkss_jacobi_rotate(float *S, float *V, int p, int q)
+PKSS_INLINE void pkss_jacobi_rotate_masked(pkss_vf *S, pkss_vf *V, int p,
+                                           int q, pkss_vi active)
 {
-    float apq = S[3 * p + q];
-    if (apq == 0.0f)
+    pkss_vf apq = S[3 * p + q];
+    pkss_vi act = active & (apq != 0.0f);
+    if (!PKSS_ANY(act))
         return;
-    float app = S[3 * p + p], aqq = S[3 * q + q];
-    float theta = (aqq - app) / (2.0f * apq);
-    float t = 1.0f / (PKSS_FABS(theta) + PKSS_SQRT(theta * theta + 1.0f));
-    if (theta < 0.0f)
-        t = -t;
+    pkss_vf app = S[3 * p + p], aqq = S[3 * q + q];
+    pkss_vf theta = (aqq - app) / (2.0f * apq);
+    pkss_vf t = 1.0f / (PKSS_FABS(theta) + PKSS_SQRT(theta * theta + 1.0f));
+    t = PKSS_SEL(theta < 0.0f, -t, t);
     /* theta*theta overflows for huge theta: then t ~ 1/(2 theta). */
-    if (PKSS_FABS(theta) > 1.0e18f)
-        t = 0.5f / theta;
-    float c = 1.0f / PKSS_SQRT(t * t + 1.0f);
-    float s = t * c;
+    t = PKSS_SEL(PKSS_FABS(theta) > 1.0e18f, 0.5f / theta, t);
+    pkss_vf c = 1.0f / PKSS_SQRT(t * t + 1.0f);
+    pkss_vf s = t * c;
     /* S <- J^T S J with J the Givens rotation in the (p, q) plane. */
     for (int k = 0; k < 3; ++k) {
-        float skp = S[3 * k + p], skq = S[3 * k + q];
-        S[3 * k + p] = c * skp - s * skq;
-        S[3 * k + q] = s * skp + c * skq;
+        pkss_vf skp = S[3 * k + p], skq = S[3 * k + q];
+        S[3 * k + p] = PKSS_SEL(act, c * skp - s * skq, skp);
+        S[3 * k + q] = PKSS_SEL(act, s * skp + c * skq, skq);
     }
     for (int k = 0; k < 3; ++k) {
-        float spk = S[3 * p + k], sqk = S[3 * q + k];
-        S[3 * p + k] = c * spk - s * sqk;
-        S[3 * q + k] = s * spk + c * sqk;
+        pkss_vf spk = S[3 * p + k], sqk = S[3 * q + k];
+        S[3 * p + k] = PKSS_SEL(act, c * spk - s * sqk, spk);
+        S[3 * q + k] = PKSS_SEL(act, s * spk + c * sqk, sqk);
     }
     for (int k = 0; k < 3; ++k) {
-        float vkp = V[3 * k + p], vkq = V[3 * k + q];
-        V[3 * k + p] = c * vkp - s * vkq;
-        V[3 * k + q] = s * vkp + c * vkq;
+        pkss_vf vkp = V[3 * k + p], vkq = V[3 * k + q];
+        V[3 * k + p] = PKSS_SEL(act, c * vkp - s * vkq, vkp);
+        V[3 * k + q] = PKSS_SEL(act, s * vkp + c * vkq, vkq);
     }
 }
 
+PKSS_INLINE void pkss_jacobi_rotate(pkss_vf *S, pkss_vf *V, int p, int q)
+{
+    pkss_jacobi_rotate_masked(S, V, p, q, PKSS_TRUE);
+}
+
+/* Swaps a and b where m is set. */
+#define PKSS_SWAP_IF(m, a, b)                                                  \
+    do {                                                                       \
+        pkss_vf pkss_sw_ = (a);                                                \
+        (a) = PKSS_SEL((m), (b), (a));                                         \
+        (b) = PKSS_SEL((m), pkss_sw_, (b));                                    \
+    } while (0)
+
 /* Singular values of the row-major 3x3 H into sv[0] >= sv[1] >= sv[2] >= 0;
  * if V is not NULL it receives the matching right singular vectors as
- * columns (row-major 3x3). */
-PKSS_INLINE void pkss_svd3_values(const float *H, float *sv, float *Vout)
+ * columns (row-major 3x3). Lanes where `active` is off are not computed. */
+PKSS_INLINE void pkss_svd3_values_masked(const pkss_vf *H, pkss_vf *sv,
+                                         pkss_vf *Vout, pkss_vi active)
 {
-    float S[9], V[9];
+    pkss_vf S[9], V[9];
     for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j) {
             S[3 * i + j] = H[i] * H[j] + H[3 + i] * H[3 + j] +
                            H[6 + i] * H[6 + j];
-            V[3 * i + j] = (i == j) ? 1.0f : 0.0f;
+            V[3 * i + j] = PKSS_VF((i == j) ? 1.0f : 0.0f);
         }
     for (int sweep = 0; sweep < 10; ++sweep) {
-        float off = PKSS_FABS(S[1]) + PKSS_FABS(S[2]) + PKSS_FABS(S[5]);
-        float diag = PKSS_FABS(S[0]) + PKSS_FABS(S[4]) + PKSS_FABS(S[8]);
-        if (off <= 1.0e-9f * diag || off == 0.0f)
+        pkss_vf off = PKSS_FABS(S[1]) + PKSS_FABS(S[2]) + PKSS_FABS(S[5]);
+        pkss_vf diag = PKSS_FABS(S[0]) + PKSS_FABS(S[4]) + PKSS_FABS(S[8]);
+        active = active & !((off <= 1.0e-9f * diag) | (off == 0.0f));
+        if (!PKSS_ANY(active))
             break;
-        pkss_jacobi_rotate(S, V, 0, 1);
-        pkss_jacobi_rotate(S, V, 0, 2);
-        pkss_jacobi_rotate(S, V, 1, 2);
+        pkss_jacobi_rotate_masked(S, V, 0, 1, active);
+        pkss_jacobi_rotate_masked(S, V, 0, 2, active);
+        pkss_jacobi_rotate_masked(S, V, 1, 2, active);
     }
     /* B = H V; singular value i = |B column i|. */
-    float s[3];
+    pkss_vf s[3];
     for (int k = 0; k < 3; ++k) {
-        float b0 = H[0] * V[k] + H[1] * V[3 + k] + H[2] * V[6 + k];
-        float b1 = H[3] * V[k] + H[4] * V[3 + k] + H[5] * V[6 + k];
-        float b2 = H[6] * V[k] + H[7] * V[3 + k] + H[8] * V[6 + k];
+        pkss_vf b0 = H[0] * V[k] + H[1] * V[3 + k] + H[2] * V[6 + k];
+        pkss_vf b1 = H[3] * V[k] + H[4] * V[3 + k] + H[5] * V[6 + k];
+        pkss_vf b2 = H[6] * V[k] + H[7] * V[3 + k] + H[8] * V[6 + k];
         s[k] = PKSS_SQRT(b0 * b0 + b1 * b1 + b2 * b2);
     }
-    int o0 = 0, o1 = 1, o2 = 2, tmp;
-    if (s[o0] < s[o1]) { tmp = o0; o0 = o1; o1 = tmp; }
-    if (s[o1] < s[o2]) { tmp = o1; o1 = o2; o2 = tmp; }
-    if (s[o0] < s[o1]) { tmp = o0; o0 = o1; o1 = tmp; }
-    sv[0] = s[o0];
-    sv[1] = s[o1];
-    sv[2] = s[o2];
+    /* Sort descending by three compare-and-swaps (values and, if wanted,
+     * the columns of V with them). */
+    pkss_vi m01 = s[0] < s[1];
+    PKSS_SWAP_IF(m01, s[0], s[1]);
+    pkss_vi m12 = s[1] < s[2];
+    PKSS_SWAP_IF(m12, s[1], s[2]);
+    pkss_vi m01b = s[0] < s[1];
+    PKSS_SWAP_IF(m01b, s[0], s[1]);
+    sv[0] = s[0];
+    sv[1] = s[1];
+    sv[2] = s[2];
     if (Vout) {
         for (int r = 0; r < 3; ++r) {
-            Vout[3 * r + 0] = V[3 * r + o0];
-            Vout[3 * r + 1] = V[3 * r + o1];
-            Vout[3 * r + 2] = V[3 * r + o2];
+            pkss_vf c0 = V[3 * r + 0], c1 = V[3 * r + 1], c2 = V[3 * r + 2];
+            PKSS_SWAP_IF(m01, c0, c1);
+            PKSS_SWAP_IF(m12, c1, c2);
+            PKSS_SWAP_IF(m01b, c0, c1);
+            Vout[3 * r + 0] = c0;
+            Vout[3 * r + 1] = c1;
+            Vout[3 * r + 2] = c2;
         }
     }
 }
 
-PKSS_INLINE float pkss_det3(const float *H)
+PKSS_INLINE void pkss_svd3_values(const pkss_vf *H, pkss_vf *sv, pkss_vf *Vout)
+{
+    pkss_svd3_values_masked(H, sv, Vout, PKSS_TRUE);
+}
+
+PKSS_INLINE pkss_vf pkss_det3(const pkss_vf *H)
 {
     return H[0] * (H[4] * H[8] - H[5] * H[7]) -
            H[1] * (H[3] * H[8] - H[5] * H[6]) +
@@ -247,95 +372,134 @@ PKSS_INLINE float pkss_det3(const float *H)
 
 /* G = arccos(clamp(s1 + s2 + d*s3, -1, 1)), d = sign(det H)  (Eq. 6, 7_0;
  * SPEC 4.3). H must already be normalised (both sets unit Frobenius). */
-PKSS_INLINE float pkss_measure_from_H(const float *H)
+PKSS_INLINE pkss_vf pkss_measure_from_H_masked(const pkss_vf *H,
+                                               pkss_vi active)
 {
-    float sv[3];
-    pkss_svd3_values(H, sv, 0);
-    float d = pkss_det3(H) < 0.0f ? -1.0f : 1.0f;
-    float tr = sv[0] + sv[1] + d * sv[2];
-    if (tr > 1.0f)
-        tr = 1.0f;
-    if (tr < -1.0f)
-        tr = -1.0f;
+    pkss_vf sv[3];
+    pkss_svd3_values_masked(H, sv, 0, active);
+    pkss_vf d = PKSS_SEL(pkss_det3(H) < 0.0f, PKSS_VF(-1.0f), PKSS_VF(1.0f));
+    pkss_vf tr = sv[0] + sv[1] + d * sv[2];
+    tr = PKSS_SEL(tr > 1.0f, PKSS_VF(1.0f), tr);
+    tr = PKSS_SEL(tr < -1.0f, PKSS_VF(-1.0f), tr);
     return PKSS_ACOS(tr);
 }
 
+PKSS_INLINE pkss_vf pkss_measure_from_H(const pkss_vf *H)
+{
+    return pkss_measure_from_H_masked(H, PKSS_TRUE);
+}
+
 /* ---------------------------------------------------------------------- */
-/* Score of one (source binning + azimuth shift, template binning) pair     */
-/* (SPEC 4). Template cell (e, a) is matched with source cell               */
-/* (e, (a - shift) mod n_az): rotating the source by a whole azimuth step   */
-/* about z moves its cells by one azimuth index. Both matched sets are      */
-/* centred on their own means and scaled to unit Frobenius norm (Eq. 2 on   */
-/* the representatives), H = X^T Y. tgt_occupied = occupied template cells. */
+/* Score of (source binning + azimuth shift, template binning) pairs       */
+/* (SPEC 4). Template cell (e, a) is matched with source cell              */
+/* (e, (a - shift) mod n_az): rotating the source by a whole azimuth step  */
+/* about z moves its cells by one azimuth index. Both matched sets are     */
+/* centred on their own means and scaled to unit Frobenius norm (Eq. 2 on  */
+/* the representatives), H = X^T Y. tgt_occupied = occupied template cells.*/
+/* One source table (float[n_cells][4]) against PKSS_VW template tables:   */
+/* component k of cell c of lane l is tgt[(4*c + k) * tgt_stride + l].     */
 /* ---------------------------------------------------------------------- */
+PKSS_INLINE pkss_vf pkss_score_lanes(PKSS_CONST float *src, int shift,
+                                     PKSS_CONST float *tgt, int tgt_stride,
+                                     pkss_vi tgt_occupied, int n_az)
+{
+    int n_el = n_az / 2;
+    pkss_vi k = PKSS_VI(0);
+    pkss_vf mx0 = PKSS_VF(0.0f), mx1 = PKSS_VF(0.0f), mx2 = PKSS_VF(0.0f);
+    pkss_vf my0 = PKSS_VF(0.0f), my1 = PKSS_VF(0.0f), my2 = PKSS_VF(0.0f);
+    const pkss_vf zero = PKSS_VF(0.0f);
+    for (int e = 0; e < n_el; ++e) {
+        for (int a = 0; a < n_az; ++a) {
+            int ct = n_az * e + a;
+            int as = a - shift;
+            if (as < 0)
+                as += n_az;
+            int cs = n_az * e + as;
+            if (!(src[4 * cs + 3] > 0.0f))
+                continue;
+            pkss_vi m = PKSS_LOADV(tgt, (4 * ct + 3) * tgt_stride) > 0.0f;
+            if (!PKSS_ANY(m))
+                continue;
+            k = k + PKSS_ONE_IF(m);
+            mx0 = mx0 + PKSS_SEL(m, PKSS_VF(src[4 * cs]), zero);
+            mx1 = mx1 + PKSS_SEL(m, PKSS_VF(src[4 * cs + 1]), zero);
+            mx2 = mx2 + PKSS_SEL(m, PKSS_VF(src[4 * cs + 2]), zero);
+            my0 = my0 + PKSS_SEL(m, PKSS_LOADV(tgt, (4 * ct) * tgt_stride), zero);
+            my1 = my1 + PKSS_SEL(m, PKSS_LOADV(tgt, (4 * ct + 1) * tgt_stride), zero);
+            my2 = my2 + PKSS_SEL(m, PKSS_LOADV(tgt, (4 * ct + 2) * tgt_stride), zero);
+        }
+    }
+    pkss_vi valid = (k >= PKSS_MIN_MATCHED) &
+                    !(PKSS_TO_VF(k) < PKSS_MIN_COVERAGE * PKSS_TO_VF(tgt_occupied));
+    if (!PKSS_ANY(valid))
+        return PKSS_VF(PKSS_HALF_PI_F);
+    pkss_vf inv_k = 1.0f / PKSS_TO_VF(k);
+    mx0 = mx0 * inv_k; mx1 = mx1 * inv_k; mx2 = mx2 * inv_k;
+    my0 = my0 * inv_k; my1 = my1 * inv_k; my2 = my2 * inv_k;
+    pkss_vf H[9];
+    for (int i = 0; i < 9; ++i)
+        H[i] = zero;
+    pkss_vf nx = zero, ny = zero;
+    for (int e = 0; e < n_el; ++e) {
+        for (int a = 0; a < n_az; ++a) {
+            int ct = n_az * e + a;
+            int as = a - shift;
+            if (as < 0)
+                as += n_az;
+            int cs = n_az * e + as;
+            if (!(src[4 * cs + 3] > 0.0f))
+                continue;
+            pkss_vi m = PKSS_LOADV(tgt, (4 * ct + 3) * tgt_stride) > 0.0f;
+            if (!PKSS_ANY(m))
+                continue;
+            pkss_vf x0 = src[4 * cs] - mx0, x1 = src[4 * cs + 1] - mx1,
+                    x2 = src[4 * cs + 2] - mx2;
+            pkss_vf y0 = PKSS_LOADV(tgt, (4 * ct) * tgt_stride) - my0;
+            pkss_vf y1 = PKSS_LOADV(tgt, (4 * ct + 1) * tgt_stride) - my1;
+            pkss_vf y2 = PKSS_LOADV(tgt, (4 * ct + 2) * tgt_stride) - my2;
+            H[0] = H[0] + PKSS_SEL(m, x0 * y0, zero);
+            H[1] = H[1] + PKSS_SEL(m, x0 * y1, zero);
+            H[2] = H[2] + PKSS_SEL(m, x0 * y2, zero);
+            H[3] = H[3] + PKSS_SEL(m, x1 * y0, zero);
+            H[4] = H[4] + PKSS_SEL(m, x1 * y1, zero);
+            H[5] = H[5] + PKSS_SEL(m, x1 * y2, zero);
+            H[6] = H[6] + PKSS_SEL(m, x2 * y0, zero);
+            H[7] = H[7] + PKSS_SEL(m, x2 * y1, zero);
+            H[8] = H[8] + PKSS_SEL(m, x2 * y2, zero);
+            nx = nx + PKSS_SEL(m, x0 * x0 + x1 * x1 + x2 * x2, zero);
+            ny = ny + PKSS_SEL(m, y0 * y0 + y1 * y1 + y2 * y2, zero);
+        }
+    }
+    valid = valid & (nx > 0.0f) & (ny > 0.0f);
+    if (!PKSS_ANY(valid))
+        return PKSS_VF(PKSS_HALF_PI_F);
+    pkss_vf inv = 1.0f / (PKSS_SQRT(nx) * PKSS_SQRT(ny));
+    for (int i = 0; i < 9; ++i)
+        H[i] = H[i] * inv;
+    pkss_vf g = pkss_measure_from_H_masked(H, valid);
+    return PKSS_SEL(valid, g, PKSS_VF(PKSS_HALF_PI_F));
+}
+
+#if PKSS_VW == 1
+/* The C layouts of the banner (one lane). */
+PKSS_INLINE void pkss_bin_points(PKSS_CONST float *pts, int n, const float *R,
+                                 float cx, float cy, float cz, int n_az,
+                                 PKSS_CONST float *edges, PKSS_GLOBAL float *reps)
+{
+    pkss_bin_points_strided(pts, 1, 3, n, R, cx, cy, cz, n_az, edges, reps, 1);
+}
+
 PKSS_INLINE float pkss_score_pair(PKSS_CONST float *src, int shift,
                                   PKSS_CONST float *tgt, int tgt_occupied,
                                   int n_az)
 {
-    int n_el = n_az / 2;
-    int k = 0;
-    float mx0 = 0.0f, mx1 = 0.0f, mx2 = 0.0f;
-    float my0 = 0.0f, my1 = 0.0f, my2 = 0.0f;
-    for (int e = 0; e < n_el; ++e) {
-        for (int a = 0; a < n_az; ++a) {
-            int ct = n_az * e + a;
-            int as = a - shift;
-            if (as < 0)
-                as += n_az;
-            int cs = n_az * e + as;
-            if (tgt[4 * ct + 3] > 0.0f && src[4 * cs + 3] > 0.0f) {
-                ++k;
-                mx0 += src[4 * cs];
-                mx1 += src[4 * cs + 1];
-                mx2 += src[4 * cs + 2];
-                my0 += tgt[4 * ct];
-                my1 += tgt[4 * ct + 1];
-                my2 += tgt[4 * ct + 2];
-            }
-        }
-    }
-    if (k < PKSS_MIN_MATCHED || (float)k < PKSS_MIN_COVERAGE * (float)tgt_occupied)
-        return PKSS_HALF_PI_F;
-    float inv_k = 1.0f / (float)k;
-    mx0 *= inv_k; mx1 *= inv_k; mx2 *= inv_k;
-    my0 *= inv_k; my1 *= inv_k; my2 *= inv_k;
-    float H[9] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
-    float nx = 0.0f, ny = 0.0f;
-    for (int e = 0; e < n_el; ++e) {
-        for (int a = 0; a < n_az; ++a) {
-            int ct = n_az * e + a;
-            int as = a - shift;
-            if (as < 0)
-                as += n_az;
-            int cs = n_az * e + as;
-            if (tgt[4 * ct + 3] > 0.0f && src[4 * cs + 3] > 0.0f) {
-                float x0 = src[4 * cs] - mx0, x1 = src[4 * cs + 1] - mx1,
-                      x2 = src[4 * cs + 2] - mx2;
-                float y0 = tgt[4 * ct] - my0, y1 = tgt[4 * ct + 1] - my1,
-                      y2 = tgt[4 * ct + 2] - my2;
-                H[0] += x0 * y0; H[1] += x0 * y1; H[2] += x0 * y2;
-                H[3] += x1 * y0; H[4] += x1 * y1; H[5] += x1 * y2;
-                H[6] += x2 * y0; H[7] += x2 * y1; H[8] += x2 * y2;
-                nx += x0 * x0 + x1 * x1 + x2 * x2;
-                ny += y0 * y0 + y1 * y1 + y2 * y2;
-            }
-        }
-    }
-    if (!(nx > 0.0f) || !(ny > 0.0f))
-        return PKSS_HALF_PI_F;
-    float inv = 1.0f / (PKSS_SQRT(nx) * PKSS_SQRT(ny));
-    for (int i = 0; i < 9; ++i)
-        H[i] *= inv;
-    return pkss_measure_from_H(H);
+    return pkss_score_lanes(src, shift, tgt, 1, tgt_occupied, n_az);
 }
 
-/* Occupied cells of a rep table. */
 PKSS_INLINE int pkss_count_occupied(PKSS_CONST float *reps, int n_cells)
 {
-    int k = 0;
-    for (int c = 0; c < n_cells; ++c)
-        k += reps[4 * c + 3] > 0.0f;
-    return k;
+    return pkss_count_occupied_strided(reps, n_cells, 1);
 }
+#endif
 
 #endif /* PKSS_SHARED_H */
