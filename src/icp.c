@@ -22,6 +22,7 @@
 #include "pkss_internal.h"
 
 #include <math.h>
+#include <pthread.h>
 #include <string.h>
 
 #define ICP_GATE_SCALE_START 8.0
@@ -64,25 +65,73 @@ static void inverse_point(const pkss__pose *T, const double *y, double *x)
         x[d] = (T->R[d] * v[0] + T->R[3 + d] * v[1] + T->R[6 + d] * v[2]) / T->s;
 }
 
+/* Squared distance between two points. */
+static double dist2(const double *a, const double *b)
+{
+    double dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
+    return dx * dx + dy * dy + dz * dz;
+}
+
+/* Search radius^2 for a warm-started query: the previous iteration's partner
+ * (prev, UINT32_MAX if none) at its current distance bounds the search, so
+ * the tree prunes almost everything; the result is exactly that of a cold
+ * search within the gate (the true nearest is at most that far). */
+static double warm_bound(const double *q, const double *pts, uint32_t prev,
+                         double g2)
+{
+    if (prev == UINT32_MAX)
+        return g2;
+    /* a relative slack far above rounding keeps the old partner inside */
+    double d2 = dist2(q, pts + 3 * (size_t)prev) * (1.0 + 1e-9) + 1e-300;
+    return d2 < g2 ? d2 : g2;
+}
+
+typedef struct bwd_job {
+    const pkss__icp_view *src, *tgt;
+    const pkss__pose *T;
+    double g2s;
+    uint32_t *bwd;
+} bwd_job;
+
+static void *backward(void *arg)
+{
+    const bwd_job *j = arg;
+    for (size_t k = 0; k < j->tgt->m; ++k) {
+        double x[3];
+        inverse_point(j->T, j->tgt->pts + 3 * k, x);
+        double b = warm_bound(x, j->src->pts, j->bwd[k], j->g2s);
+        j->bwd[k] = pkss__kdtree_nearest(j->src->tree, x, b, NULL);
+    }
+    return NULL;
+}
+
+/* Below this many queries a second thread costs more than it saves. */
+#define ICP_THREAD_MIN 1000
+
 /* Nearest template point of every source point (fwd) and nearest source
  * point of every template point (bwd), both within gate (template units);
- * UINT32_MAX where none. */
+ * UINT32_MAX where none. fwd/bwd hold the previous call's answers on entry
+ * (or UINT32_MAX) and serve as warm starts. The two directions are
+ * independent: large views run the backward one on a second thread. */
 static void correspond(const pkss__icp_view *src, const pkss__icp_view *tgt,
                        const pkss__pose *T, double gate, uint32_t *fwd,
                        double *fwd_d2, uint32_t *bwd)
 {
     double g2 = gate * gate;
+    bwd_job job = {src, tgt, T, g2 / (T->s * T->s), bwd};
+    pthread_t th;
+    int threaded = src->m + tgt->m >= 2 * ICP_THREAD_MIN &&
+                   pthread_create(&th, NULL, backward, &job) == 0;
     for (size_t i = 0; i < src->m; ++i) {
         double y[3];
         transform_point(T, src->pts + 3 * i, y);
-        fwd[i] = pkss__kdtree_nearest(tgt->tree, y, g2, &fwd_d2[i]);
+        double b = warm_bound(y, tgt->pts, fwd[i], g2);
+        fwd[i] = pkss__kdtree_nearest(tgt->tree, y, b, &fwd_d2[i]);
     }
-    double g2s = g2 / (T->s * T->s);
-    for (size_t j = 0; j < tgt->m; ++j) {
-        double x[3];
-        inverse_point(T, tgt->pts + 3 * j, x);
-        bwd[j] = pkss__kdtree_nearest(src->tree, x, g2s, NULL);
-    }
+    if (threaded)
+        pthread_join(th, NULL);
+    else
+        backward(&job);
 }
 
 /* Least-squares similarity (Umeyama) or rigid (Kabsch, fixed s) update
@@ -171,6 +220,8 @@ static int work_alloc(icp_work *w, size_t ns, size_t nt)
         work_free(w);
         return 0;
     }
+    memset(w->fwd, 0xff, ns * sizeof(uint32_t)); /* no warm start yet */
+    memset(w->bwd, 0xff, nt * sizeof(uint32_t));
     return 1;
 }
 

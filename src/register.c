@@ -15,6 +15,7 @@
 #define PKSS_PI 3.14159265358979323846
 /* Candidates refined at full resolution (by coarse overlap). */
 #define PKSS_FULL_REFINE 3
+#define PKSS_FULL_REFINE_RATIO 0.6
 
 void pkss_result_init(pkss_result *result)
 {
@@ -289,7 +290,15 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
             }
             order[j] = v;
         }
+        /* Full refinement for the best few by coarse overlap, skipping
+         * those far behind the leader: a candidate at less than
+         * PKSS_FULL_REFINE_RATIO of the best coarse overlap has converged
+         * elsewhere and never won in our measurements, while near-ties
+         * (symmetric shapes) are all refined. */
         size_t n_full = kept < PKSS_FULL_REFINE ? kept : PKSS_FULL_REFINE;
+        while (n_full > 1 &&
+               ir[order[n_full - 1]].overlap < PKSS_FULL_REFINE_RATIO * ir[order[0]].overlap)
+            --n_full;
         for (size_t i = 0; i < kept; ++i) {
             int c = order[i];
             if (i < n_full) {

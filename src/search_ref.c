@@ -100,29 +100,40 @@ static int cmp_scored(const void *a, const void *b)
 
 /* Best top_k by G_K, suppressing a candidate whose rotation lies within
  * 45 degrees (geodesic) of an already kept one: argmin alone is fragile on
- * near-symmetric objects, whose near-equal minima lie ~180 deg apart. */
+ * near-symmetric objects, whose near-equal minima lie ~180 deg apart.
+ * Only each rotation's best pair (lowest score, then lowest index) can be
+ * kept: once it is kept or suppressed, every later pair of that rotation is
+ * suppressed (angle 0). So the greedy pass runs over the rotations' bests,
+ * sorted by (score, index) -- the order in which they come first in the
+ * sorted list of all pairs -- with the same result as sorting all pairs,
+ * at n_rotations log n_rotations instead of n_pairs log n_pairs. */
 size_t pkss__select_top_k(const float *scores, const float *gc,
                           const float *gf, const pkss__rotation_set *rot,
                           size_t n_offsets, size_t top_k, pkss__pick *out)
 {
-    size_t total = rot->n_rotations * n_offsets;
-    scored *all = pkss__malloc(total * sizeof *all);
-    if (!all)
+    size_t n_rot = rot->n_rotations;
+    scored *best = pkss__malloc((n_rot ? n_rot : 1) * sizeof *best);
+    if (!best)
         return SIZE_MAX;
     size_t valid = 0;
-    for (size_t k = 0; k < total; ++k) {
-        /* G = pi/2 marks the coverage guard: never a candidate. */
-        if (!(scores[k] < PKSS_HALF_PI_F))
+    for (size_t r = 0; r < n_rot; ++r) {
+        const float *s = scores + r * n_offsets;
+        size_t bo = SIZE_MAX;
+        for (size_t o = 0; o < n_offsets; ++o)
+            /* G = pi/2 marks the coverage guard: never a candidate. */
+            if (s[o] < PKSS_HALF_PI_F && (bo == SIZE_MAX || s[o] < s[bo]))
+                bo = o;
+        if (bo == SIZE_MAX)
             continue;
-        all[valid].score = scores[k];
-        all[valid].index = (uint32_t)k;
+        best[valid].score = s[bo];
+        best[valid].index = (uint32_t)(r * n_offsets + bo);
         ++valid;
     }
-    qsort(all, valid, sizeof *all, cmp_scored);
+    qsort(best, valid, sizeof *best, cmp_scored);
     const double min_angle = 45.0 * 3.14159265358979323846 / 180.0;
     size_t kept = 0;
     for (size_t i = 0; i < valid && kept < top_k; ++i) {
-        uint32_t r = all[i].index / (uint32_t)n_offsets;
+        uint32_t r = best[i].index / (uint32_t)n_offsets;
         int close = 0;
         for (size_t j = 0; j < kept && !close; ++j)
             close = pkss__rotation_angle(rot->R + 9 * (size_t)r,
@@ -131,12 +142,12 @@ size_t pkss__select_top_k(const float *scores, const float *gc,
         if (close)
             continue;
         out[kept].rotation = r;
-        out[kept].offset = all[i].index % (uint32_t)n_offsets;
-        out[kept].score = all[i].score;
-        out[kept].g_contour = gc ? gc[all[i].index] : all[i].score;
-        out[kept].g_feature = gf ? gf[all[i].index] : 0.0f;
+        out[kept].offset = best[i].index % (uint32_t)n_offsets;
+        out[kept].score = best[i].score;
+        out[kept].g_contour = gc ? gc[best[i].index] : best[i].score;
+        out[kept].g_feature = gf ? gf[best[i].index] : 0.0f;
         ++kept;
     }
-    pkss__free(all);
+    pkss__free(best);
     return kept;
 }

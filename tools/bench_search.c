@@ -29,6 +29,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #ifndef PKSS_DATA_DIR
 #define PKSS_DATA_DIR "../shared/data"
@@ -48,6 +49,15 @@ static double median(double *v, int n)
 {
     qsort(v, (size_t)n, sizeof *v, cmp_double);
     return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+/* CPU seconds of the whole process (all threads, PoCL's workers too):
+ * unlike wall time, not inflated by other processes on a shared machine. */
+static double cpu_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
 static uint64_t rng_next(uint64_t *s)
@@ -141,7 +151,7 @@ static pkss_context *make_context(int backend)
 
 /* ------------------------------------------------------- search stages */
 typedef struct stage_times {
-    double bin, score, select, search; /* medians, seconds */
+    double bin, score, select, search, cpu; /* medians, seconds */
     size_t pairs;
 } stage_times;
 
@@ -181,8 +191,10 @@ static int time_search(pkss_context *ctx, const search_fixture *f,
     double *score = malloc((size_t)g_runs * sizeof(double));
     double *sel = malloc((size_t)g_runs * sizeof(double));
     double *all = malloc((size_t)g_runs * sizeof(double));
+    double *cpu = malloc((size_t)g_runs * sizeof(double));
     int ok = 1;
     for (int r = -1; r < g_runs && ok; ++r) { /* r = -1: warm-up */
+        double c0 = cpu_now();
         double t0 = pkss__now();
         pkss_status st = cl ? pkss__search_cl(ctx, &f->in, s, s + total, s + 2 * total)
                             : pkss__search_ref(ctx, &f->in, s, s + total, s + 2 * total);
@@ -192,6 +204,7 @@ static int time_search(pkss_context *ctx, const search_fixture *f,
                                          &f->rot, (size_t)f->n_off,
                                          (size_t)ctx->params.top_k, picks);
         double t2 = pkss__now();
+        double c2 = cpu_now();
         if (st != PKSS_OK || kept == SIZE_MAX) {
             fprintf(stderr, "bench_search: search: %s: %s\n", pkss_status_name(st),
                     pkss_context_last_error(ctx));
@@ -210,12 +223,14 @@ static int time_search(pkss_context *ctx, const search_fixture *f,
         }
         sel[r] = t2 - t1;
         all[r] = t2 - t0;
+        cpu[r] = c2 - c0;
     }
     if (ok) {
         out->bin = median(bin, g_runs);
         out->score = median(score, g_runs);
         out->select = median(sel, g_runs);
         out->search = median(all, g_runs);
+        out->cpu = median(cpu, g_runs);
         out->pairs = total;
     }
     free(s);
@@ -223,6 +238,7 @@ static int time_search(pkss_context *ctx, const search_fixture *f,
     free(score);
     free(sel);
     free(all);
+    free(cpu);
     return ok;
 }
 
@@ -244,8 +260,8 @@ static void bench_stages(pkss_context *cl, pkss_context *ref, const double *clou
     printf("\n### Search stages (medians of %d runs; bunny reconstruction, 70 %% subsets)\n\n",
            g_runs);
     printf("| backend | m | n | N | pairs | binning s | scoring s | selection s | "
-           "search s (bin+score+select, wall) |\n");
-    printf("|---|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+           "search s (bin+score+select, wall) | CPU s (all threads) |\n");
+    printf("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
     for (size_t c = 0; c < n_cfg; ++c) {
         for (int k = 0; k < 2; ++k) {
             pkss_context *ctx = k == 0 ? cl : ref;
@@ -261,9 +277,9 @@ static void bench_stages(pkss_context *cl, pkss_context *ref, const double *clou
             }
             stage_times t;
             if (time_search(ctx, &f, &t))
-                printf("| %s | %d | %d | %d | %zu | %.4f | %.4f | %.4f | %.4f |\n",
+                printf("| %s | %d | %d | %d | %zu | %.4f | %.4f | %.4f | %.4f | %.4f |\n",
                        k == 0 ? "OpenCL" : "reference", configs[c][0], configs[c][1],
-                       configs[c][2], t.pairs, t.bin, t.score, t.select, t.search);
+                       configs[c][2], t.pairs, t.bin, t.score, t.select, t.search, t.cpu);
             fflush(stdout);
             search_fixture_free(&f);
         }
@@ -338,6 +354,15 @@ int main(int argc, char **argv)
     if (g_runs < 1)
         g_runs = 1;
     printf("%s\n", pkss_build_info());
+    double la_v[3] = {0, 0, 0};
+    FILE *la = fopen("/proc/loadavg", "r");
+    if (la) {
+        if (fscanf(la, "%lf %lf %lf", &la_v[0], &la_v[1], &la_v[2]) != 3)
+            la_v[0] = la_v[1] = la_v[2] = 0;
+        fclose(la);
+    }
+    printf("load average at start: %.2f %.2f %.2f (wall times grow with it; CPU "
+           "times much less)\n", la_v[0], la_v[1], la_v[2]);
     pkss_context *cl = make_context(PKSS_BACKEND_OPENCL);
     pkss_context *ref = make_context(PKSS_BACKEND_REFERENCE);
     if (!ref)
