@@ -347,19 +347,32 @@ pkss_status pkss__cloud_build(pkss_context *ctx, const double *xyz, size_t n,
     c->counts.thinned = np;
 
     /* SPEC 2.2-2.3: outliers go before resampling (FPS would promote them). */
+    /* Both steps use the 12-NN graph: the statistical filter takes mutual
+     * culling's, carried over to the survivors (only rows that lost a
+     * neighbour are recomputed). */
+    pkss__knn_graph graph = {0, 0, NULL, NULL};
     if (p->cull_mutual && np > PKSS_KNN_K + 1) {
-        st = pkss__cull_mutual(pts, np, PKSS_KNN_K, keep);
+        st = pkss__cull_mutual(pts, np, PKSS_KNN_K, keep, &graph);
         if (st != PKSS_OK)
             goto oom;
+        size_t before = np;
         np = compact(pts, np, keep);
+        if (np != before) {
+            st = pkss__knn_graph_compact(&graph, keep, pts, np);
+            if (st != PKSS_OK)
+                goto oom;
+        }
     }
     c->counts.after_mutual = np;
     if (p->cull_stat && np > PKSS_KNN_K + 1) {
-        st = pkss__cull_stat(pts, np, keep);
-        if (st != PKSS_OK)
+        st = pkss__cull_stat(pts, np, keep, &graph);
+        if (st != PKSS_OK) {
+            pkss__knn_graph_free(&graph);
             goto oom;
+        }
         np = compact(pts, np, keep);
     }
+    pkss__knn_graph_free(&graph);
     c->counts.after_stat = np;
     if (np < (size_t)p->min_points) {
         st = pkss__fail(ctx, PKSS_ERR_TOO_FEW_POINTS,

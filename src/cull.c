@@ -57,10 +57,132 @@
 #define STAT_MIN_SIDE 0.02  /* box side >= this * longest side */
 #define STAT_PI 3.14159265358979323846
 
+/* ------------------------------------------------------------ graph */
+
+void pkss__knn_graph_free(pkss__knn_graph *g)
+{
+    if (!g)
+        return;
+    pkss__free(g->idx);
+    pkss__free(g->d2);
+    g->idx = NULL;
+    g->d2 = NULL;
+    g->n = g->k = 0;
+}
+
+pkss_status pkss__knn_graph_compact(pkss__knn_graph *g,
+                                    const unsigned char *keep,
+                                    const double *xyz, size_t n_new)
+{
+    if (!g || !g->idx)
+        return PKSS_OK;
+    size_t n = g->n, k = g->k;
+    uint32_t *map = pkss__malloc(n * sizeof(uint32_t));
+    uint32_t *redo = pkss__malloc((n_new ? n_new : 1) * sizeof(uint32_t));
+    if (!map || !redo) {
+        pkss__free(map);
+        pkss__free(redo);
+        pkss__knn_graph_free(g);
+        return PKSS_ERR_OUT_OF_MEMORY;
+    }
+    size_t m = 0, n_redo = 0;
+    for (size_t i = 0; i < n; ++i)
+        map[i] = keep[i] ? (uint32_t)m++ : UINT32_MAX;
+    pkss_status st = PKSS_OK;
+    if (m != n_new || n_new <= k) {
+        st = PKSS_ERR_INTERNAL;
+        goto done;
+    }
+    /* Rows move down to their new positions; a row that lost a neighbour
+     * is recomputed below, the others only get their indices renumbered
+     * (their k nearest are unchanged: removing other points cannot bring a
+     * new point closer). */
+    for (size_t i = 0; i < n; ++i) {
+        if (!keep[i])
+            continue;
+        size_t r = map[i];
+        int lost = 0;
+        for (size_t a = 0; a < k; ++a) {
+            uint32_t j = map[g->idx[k * i + a]];
+            lost |= j == UINT32_MAX;
+            g->idx[k * r + a] = j;
+            g->d2[k * r + a] = g->d2[k * i + a];
+        }
+        if (lost)
+            redo[n_redo++] = (uint32_t)r;
+    }
+    g->n = n_new;
+    if (n_redo) {
+        pkss__kdtree *tree = NULL;
+        st = pkss__kdtree_build(xyz, n_new, &tree);
+        for (size_t q = 0; q < n_redo && st == PKSS_OK; ++q) {
+            size_t r = redo[q];
+            pkss__kdtree_knn(tree, xyz + 3 * r, k, r, g->idx + k * r, g->d2 + k * r);
+        }
+        pkss__kdtree_free(tree);
+    }
+done:
+    if (st != PKSS_OK)
+        pkss__knn_graph_free(g);
+    pkss__free(map);
+    pkss__free(redo);
+    return st == PKSS_ERR_INTERNAL ? PKSS_OK : st;
+}
+
+/* The kNN graph of xyz: taken from *cache when it was built for the same
+ * n and k, else computed. On success idx and d2 point to it; the caller
+ * releases it with release_graph(). */
+static pkss_status get_graph(const double *xyz, size_t n, size_t k,
+                             pkss__knn_graph *cache, uint32_t **idx,
+                             double **d2)
+{
+    if (cache && cache->idx && cache->n == n && cache->k == k) {
+        *idx = cache->idx;
+        *d2 = cache->d2;
+        return PKSS_OK;
+    }
+    pkss__kdtree *tree = NULL;
+    *idx = pkss__malloc(n * k * sizeof(uint32_t));
+    *d2 = pkss__malloc(n * k * sizeof(double));
+    pkss_status st = PKSS_ERR_OUT_OF_MEMORY;
+    if (*idx && *d2) {
+        st = pkss__kdtree_build(xyz, n, &tree);
+        if (st == PKSS_OK)
+            st = pkss__knn_all(tree, xyz, n, k, *idx, *d2);
+    }
+    pkss__kdtree_free(tree);
+    if (st != PKSS_OK) {
+        pkss__free(*idx);
+        pkss__free(*d2);
+        *idx = NULL;
+        *d2 = NULL;
+    }
+    return st;
+}
+
+/* Hands a freshly computed graph to the cache (if any), or frees it. */
+static void release_graph(const double *xyz, size_t n, size_t k,
+                          pkss__knn_graph *cache, uint32_t *idx, double *d2)
+{
+    (void)xyz;
+    if (cache && cache->idx == idx)
+        return; /* it is the cache's */
+    if (cache) {
+        pkss__knn_graph_free(cache);
+        cache->idx = idx;
+        cache->d2 = d2;
+        cache->n = n;
+        cache->k = k;
+        return;
+    }
+    pkss__free(idx);
+    pkss__free(d2);
+}
+
 /* ------------------------------------------------------------ mutual */
 
 pkss_status pkss__cull_mutual(const double *xyz, size_t n, size_t k,
-                              unsigned char *keep)
+                              unsigned char *keep, pkss__knn_graph *graph)
 {
     if (!xyz || !keep)
         return PKSS_ERR_NULL_ARGUMENT;
@@ -72,18 +194,11 @@ pkss_status pkss__cull_mutual(const double *xyz, size_t n, size_t k,
     if (n <= k + 1)
         return PKSS_OK; /* every point is every other's neighbour */
 
-    pkss__kdtree *tree = NULL;
-    uint32_t *idx = pkss__malloc(n * k * sizeof(uint32_t));
-    double *d2 = pkss__malloc(n * k * sizeof(double));
-    pkss_status st = PKSS_ERR_OUT_OF_MEMORY;
-    if (!idx || !d2)
-        goto cleanup;
-    st = pkss__kdtree_build(xyz, n, &tree);
+    uint32_t *idx = NULL;
+    double *d2 = NULL;
+    pkss_status st = get_graph(xyz, n, k, graph, &idx, &d2);
     if (st != PKSS_OK)
-        goto cleanup;
-    st = pkss__knn_all(tree, xyz, n, k, idx, d2);
-    if (st != PKSS_OK)
-        goto cleanup;
+        return st;
     for (size_t i = 0; i < n; ++i) {
         const uint32_t *nb = idx + k * i;
         int mutual = 0;
@@ -97,12 +212,8 @@ pkss_status pkss__cull_mutual(const double *xyz, size_t n, size_t k,
         }
         keep[i] = (unsigned char)mutual;
     }
-
-cleanup:
-    pkss__kdtree_free(tree);
-    pkss__free(idx);
-    pkss__free(d2);
-    return st;
+    release_graph(xyz, n, k, graph, idx, d2);
+    return PKSS_OK;
 }
 
 /* -------------------------------------------------------- statistical */
@@ -199,7 +310,8 @@ static double plane_distance(const double *xyz, const uint32_t *nb, size_t m,
     return fabs(h);
 }
 
-pkss_status pkss__cull_stat(const double *xyz, size_t n, unsigned char *keep)
+pkss_status pkss__cull_stat(const double *xyz, size_t n, unsigned char *keep,
+                            pkss__knn_graph *graph)
 {
     const size_t k = STAT_K;
     if (!xyz || !keep)
@@ -210,19 +322,16 @@ pkss_status pkss__cull_stat(const double *xyz, size_t n, unsigned char *keep)
     if (n <= 2 * k)
         return PKSS_OK; /* too few points to tell context from outlier */
 
-    pkss__kdtree *tree = NULL;
-    uint32_t *idx = pkss__malloc(n * k * sizeof(uint32_t));
-    double *d2 = pkss__malloc(n * k * sizeof(double));
+    uint32_t *idx = NULL;
+    double *d2 = NULL;
     double *dm = pkss__malloc(n * sizeof(double));
-    pkss_status st = PKSS_ERR_OUT_OF_MEMORY;
-    if (!idx || !d2 || !dm)
-        goto cleanup;
-    st = pkss__kdtree_build(xyz, n, &tree);
-    if (st != PKSS_OK)
-        goto cleanup;
-    st = pkss__knn_all(tree, xyz, n, k, idx, d2);
-    if (st != PKSS_OK)
-        goto cleanup;
+    if (!dm)
+        return PKSS_ERR_OUT_OF_MEMORY;
+    pkss_status st = get_graph(xyz, n, k, graph, &idx, &d2);
+    if (st != PKSS_OK) {
+        pkss__free(dm);
+        return st;
+    }
 
     double nv = background_density(xyz, n, dm);
     /* rho_i < STAT_SPARSE * N/V  <=>  r12^3 > 12 / (4/3 pi STAT_SPARSE N/V) */
@@ -269,10 +378,7 @@ pkss_status pkss__cull_stat(const double *xyz, size_t n, unsigned char *keep)
             keep[i] = 0;
     }
 
-cleanup:
-    pkss__kdtree_free(tree);
-    pkss__free(idx);
-    pkss__free(d2);
+    release_graph(xyz, n, k, graph, idx, d2);
     pkss__free(dm);
     return st;
 }

@@ -117,12 +117,32 @@ pkss_status pkss__dedupe(const double *xyz, size_t n, unsigned char *keep,
 /* SPEC 2.1: voxel-thin to about `target` points. *out is pkss__malloc'd. */
 pkss_status pkss__thin_voxel(const double *xyz, size_t n, size_t target,
                              uint64_t seed, double **out, size_t *n_out);
+/* A kNN graph (k neighbours of each of n points, self excluded) that the
+ * two culling steps can share: each takes an optional cache; a step finding
+ * a graph for the same n and k in it uses that, otherwise it computes one
+ * and leaves it there. The caller frees it with pkss__knn_graph_free. */
+typedef struct pkss__knn_graph {
+    size_t n, k;
+    uint32_t *idx;
+    double *d2;
+} pkss__knn_graph;
+void pkss__knn_graph_free(pkss__knn_graph *g);
+/* Carries a graph over to the points kept by keep[] (xyz: the compacted
+ * points, n_new of them): indices are renumbered and only the rows that
+ * lost a neighbour are recomputed. The result equals a fresh graph. On
+ * failure the graph is freed (a later step recomputes it). */
+pkss_status pkss__knn_graph_compact(pkss__knn_graph *g,
+                                    const unsigned char *keep,
+                                    const double *xyz, size_t n_new);
+
 /* SPEC 2.2: mutual-kNN culling (Eq. 3). keep[i] = 1 if point i has at least
- * one mutual neighbour among its k nearest. */
+ * one mutual neighbour among its k nearest. graph may be NULL. */
 pkss_status pkss__cull_mutual(const double *xyz, size_t n, size_t k,
-                              unsigned char *keep);
-/* SPEC 2.3: density-aware statistical filter. keep[i] = 0 for outliers. */
-pkss_status pkss__cull_stat(const double *xyz, size_t n, unsigned char *keep);
+                              unsigned char *keep, pkss__knn_graph *graph);
+/* SPEC 2.3: density-aware statistical filter. keep[i] = 0 for outliers.
+ * graph may be NULL (k = 12). */
+pkss_status pkss__cull_stat(const double *xyz, size_t n, unsigned char *keep,
+                            pkss__knn_graph *graph);
 /* SPEC 2.4: farthest-point sampling of m points, starting from the point
  * farthest from the centroid; idx receives min(m, n) indices. */
 pkss_status pkss__fps(const double *xyz, size_t n, size_t m, uint32_t *idx,

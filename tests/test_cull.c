@@ -60,7 +60,7 @@ static cull_result run_cull(double *x, size_t n, unsigned char *label,
     assert_non_null(keep);
     double t0 = pkss__now();
     clock_t c0 = clock();
-    assert_int_equal(pkss__cull_mutual(x, n, K, keep), PKSS_OK);
+    assert_int_equal(pkss__cull_mutual(x, n, K, keep, NULL), PKSS_OK);
     n = compact(x, n, keep, label);
     r.after_mutual = n;
     clock_t c1 = clock();
@@ -70,7 +70,7 @@ static cull_result run_cull(double *x, size_t n, unsigned char *label,
     double t2 = pkss__now();
     c0 += clock() - c1; /* the copy is not part of the cost */
     t0 += t2 - t1;
-    assert_int_equal(pkss__cull_stat(x, n, keep), PKSS_OK);
+    assert_int_equal(pkss__cull_stat(x, n, keep, NULL), PKSS_OK);
     r.cpu = (double)(clock() - c0) / CLOCKS_PER_SEC;
     r.wall = pkss__now() - t0;
     n = compact(x, n, keep, label);
@@ -320,17 +320,17 @@ static void test_isolated_point_is_culled(void **state)
     memcpy(x, g, n * 3 * sizeof(double));
     x[3 * n] = 30.0, x[3 * n + 1] = 30.0, x[3 * n + 2] = 30.0;
     unsigned char *keep = malloc(n + 1);
-    assert_int_equal(pkss__cull_mutual(x, n + 1, K, keep), PKSS_OK);
+    assert_int_equal(pkss__cull_mutual(x, n + 1, K, keep, NULL), PKSS_OK);
     assert_int_equal(keep[n], 0);
     assert_int_equal(count_kept(keep, n), n);
     /* also when it comes first */
     memmove(x + 3, g, n * 3 * sizeof(double));
     x[0] = x[1] = x[2] = -25.0;
-    assert_int_equal(pkss__cull_mutual(x, n + 1, K, keep), PKSS_OK);
+    assert_int_equal(pkss__cull_mutual(x, n + 1, K, keep, NULL), PKSS_OK);
     assert_int_equal(keep[0], 0);
     assert_int_equal(count_kept(keep + 1, n), n);
     /* the statistical filter drops it too (density clause) */
-    assert_int_equal(pkss__cull_stat(x, n + 1, keep), PKSS_OK);
+    assert_int_equal(pkss__cull_stat(x, n + 1, keep, NULL), PKSS_OK);
     assert_int_equal(keep[0], 0);
     assert_int_equal(count_kept(keep + 1, n), n);
     free(keep);
@@ -350,9 +350,9 @@ static void test_grids_keep_everything(void **state)
         double *x = grid(cases[c].side, cases[c].dims, cases[c].jitter,
                          cases[c].jitter > 0 ? &rng : NULL, &n);
         unsigned char *keep = malloc(n);
-        assert_int_equal(pkss__cull_mutual(x, n, K, keep), PKSS_OK);
+        assert_int_equal(pkss__cull_mutual(x, n, K, keep, NULL), PKSS_OK);
         size_t km = count_kept(keep, n);
-        assert_int_equal(pkss__cull_stat(x, n, keep), PKSS_OK);
+        assert_int_equal(pkss__cull_stat(x, n, keep, NULL), PKSS_OK);
         size_t ks = count_kept(keep, n);
         print_message("[%s] %zu^%d grid, jitter %.1f: mutual keeps %zu/%zu, "
                       "stat keeps %zu/%zu\n", PROGRAM, cases[c].side,
@@ -378,7 +378,7 @@ static void test_flat_cloud_is_kept(void **state)
         x[3 * i + 2] = 1e-4 * pkss_test_normal(&rng);
     }
     unsigned char *keep = malloc(n);
-    assert_int_equal(pkss__cull_stat(x, n, keep), PKSS_OK);
+    assert_int_equal(pkss__cull_stat(x, n, keep, NULL), PKSS_OK);
     size_t kept = count_kept(keep, n);
     print_message("[%s] flat noisy wall: stat keeps %zu/%zu\n", PROGRAM, kept, n);
     assert_true(kept >= n - n / 100);
@@ -409,7 +409,7 @@ static void test_duplicate_stack(void **state)
         }
     }
     unsigned char *keep = malloc(n);
-    assert_int_equal(pkss__cull_mutual(x, n, K, keep), PKSS_OK);
+    assert_int_equal(pkss__cull_mutual(x, n, K, keep, NULL), PKSS_OK);
     size_t seen = 0, kept_stack = 0, kept_grid = 0;
     for (size_t i = 0; i < n; ++i) {
         if (is_stack[i]) {
@@ -440,11 +440,11 @@ static void test_determinism(void **state)
         for (int d = 0; d < 3; ++d)
             x[3 * i + d] = -0.1 + 0.25 * pkss_test_uniform(&rng);
     unsigned char *a = malloc(total), *b = malloc(total);
-    assert_int_equal(pkss__cull_mutual(x, total, K, a), PKSS_OK);
-    assert_int_equal(pkss__cull_mutual(x, total, K, b), PKSS_OK);
+    assert_int_equal(pkss__cull_mutual(x, total, K, a, NULL), PKSS_OK);
+    assert_int_equal(pkss__cull_mutual(x, total, K, b, NULL), PKSS_OK);
     assert_memory_equal(a, b, total);
-    assert_int_equal(pkss__cull_stat(x, total, a), PKSS_OK);
-    assert_int_equal(pkss__cull_stat(x, total, b), PKSS_OK);
+    assert_int_equal(pkss__cull_stat(x, total, a, NULL), PKSS_OK);
+    assert_int_equal(pkss__cull_stat(x, total, b, NULL), PKSS_OK);
     assert_memory_equal(a, b, total);
     free(a);
     free(b);
@@ -458,20 +458,20 @@ static void test_small_and_contract(void **state)
     for (int i = 0; i < 90; ++i)
         x[i] = (double)((i * 7919) % 101);
     unsigned char keep[30];
-    assert_int_equal(pkss__cull_mutual(NULL, 3, K, keep), PKSS_ERR_NULL_ARGUMENT);
-    assert_int_equal(pkss__cull_mutual(x, 3, K, NULL), PKSS_ERR_NULL_ARGUMENT);
-    assert_int_equal(pkss__cull_mutual(x, 3, 0, keep), PKSS_ERR_INVALID_ARGUMENT);
-    assert_int_equal(pkss__cull_stat(NULL, 3, keep), PKSS_ERR_NULL_ARGUMENT);
-    assert_int_equal(pkss__cull_stat(x, 3, NULL), PKSS_ERR_NULL_ARGUMENT);
-    assert_int_equal(pkss__cull_mutual(x, 0, K, keep), PKSS_OK);
-    assert_int_equal(pkss__cull_stat(x, 0, keep), PKSS_OK);
+    assert_int_equal(pkss__cull_mutual(NULL, 3, K, keep, NULL), PKSS_ERR_NULL_ARGUMENT);
+    assert_int_equal(pkss__cull_mutual(x, 3, K, NULL, NULL), PKSS_ERR_NULL_ARGUMENT);
+    assert_int_equal(pkss__cull_mutual(x, 3, 0, keep, NULL), PKSS_ERR_INVALID_ARGUMENT);
+    assert_int_equal(pkss__cull_stat(NULL, 3, keep, NULL), PKSS_ERR_NULL_ARGUMENT);
+    assert_int_equal(pkss__cull_stat(x, 3, NULL, NULL), PKSS_ERR_NULL_ARGUMENT);
+    assert_int_equal(pkss__cull_mutual(x, 0, K, keep, NULL), PKSS_OK);
+    assert_int_equal(pkss__cull_stat(x, 0, keep, NULL), PKSS_OK);
     /* with n <= k + 1 every point is every other's neighbour: all kept */
     memset(keep, 0, sizeof keep);
-    assert_int_equal(pkss__cull_mutual(x, K + 1, K, keep), PKSS_OK);
+    assert_int_equal(pkss__cull_mutual(x, K + 1, K, keep, NULL), PKSS_OK);
     assert_int_equal(count_kept(keep, K + 1), K + 1);
     /* too few points to judge a local context: the filter keeps all */
     memset(keep, 0, sizeof keep);
-    assert_int_equal(pkss__cull_stat(x, 24, keep), PKSS_OK);
+    assert_int_equal(pkss__cull_stat(x, 24, keep, NULL), PKSS_OK);
     assert_int_equal(count_kept(keep, 24), 24);
 }
 
@@ -488,8 +488,8 @@ static void test_out_of_memory(void **state)
         int ok = 0;
         for (long long budget = 0; budget < 20 && !ok; ++budget) {
             pkss__test_set_alloc_budget(budget);
-            pkss_status st = which ? pkss__cull_stat(x, n, keep)
-                                   : pkss__cull_mutual(x, n, K, keep);
+            pkss_status st = which ? pkss__cull_stat(x, n, keep, NULL)
+                                   : pkss__cull_mutual(x, n, K, keep, NULL);
             pkss__test_set_alloc_budget(-1);
             if (st == PKSS_OK)
                 ok = 1;
@@ -502,6 +502,48 @@ static void test_out_of_memory(void **state)
     free(x);
 }
 
+/* The shared kNN graph (cloud.c passes mutual's graph on to the filter
+ * when mutual removed nothing) gives exactly the keep[] of separate
+ * computations, and a graph of another size is recomputed, not misused. */
+static void test_shared_graph(void **state)
+{
+    (void)state;
+    size_t n = 0;
+    double *x = pkss_test_load("libpointmatcher/car_cloud400.csv", &n);
+    unsigned char *a = malloc(n), *b = malloc(n);
+    pkss__knn_graph g = {0, 0, NULL, NULL};
+    assert_int_equal(pkss__cull_mutual(x, n, K, a, &g), PKSS_OK);
+    assert_non_null(g.idx);
+    assert_int_equal(g.n, n);
+    assert_int_equal(pkss__cull_stat(x, n, a, &g), PKSS_OK);
+    assert_int_equal(pkss__cull_stat(x, n, b, NULL), PKSS_OK);
+    assert_memory_equal(a, b, n);
+    /* a cache for n points must not be used for n - 100 */
+    assert_int_equal(pkss__cull_stat(x, n - 100, a, &g), PKSS_OK);
+    assert_int_equal(g.n, n - 100);
+    assert_int_equal(pkss__cull_stat(x, n - 100, b, NULL), PKSS_OK);
+    assert_memory_equal(a, b, n - 100);
+    pkss__knn_graph_free(&g);
+    /* carried over to survivors (every 10th point dropped) it equals a
+     * fresh graph of the survivors, index for index */
+    size_t m = n - 100;
+    pkss__knn_graph h = {0, 0, NULL, NULL}, fresh = {0, 0, NULL, NULL};
+    assert_int_equal(pkss__cull_mutual(x, m, K, a, &h), PKSS_OK);
+    for (size_t i = 0; i < m; ++i)
+        a[i] = (i % 10) != 3;
+    size_t kept = compact(x, m, a, NULL);
+    assert_int_equal(pkss__knn_graph_compact(&h, a, x, kept), PKSS_OK);
+    assert_int_equal(h.n, kept);
+    assert_int_equal(pkss__cull_mutual(x, kept, K, b, &fresh), PKSS_OK);
+    assert_memory_equal(h.idx, fresh.idx, kept * K * sizeof(uint32_t));
+    assert_memory_equal(h.d2, fresh.d2, kept * K * sizeof(double));
+    pkss__knn_graph_free(&h);
+    pkss__knn_graph_free(&fresh);
+    free(a);
+    free(b);
+    free(x);
+}
+
 int main(void)
 {
     g_seed = pkss_test_seed(PROGRAM, 20240613);
@@ -511,6 +553,7 @@ int main(void)
         cmocka_unit_test(test_flat_cloud_is_kept),
         cmocka_unit_test(test_duplicate_stack),
         cmocka_unit_test(test_determinism),
+        cmocka_unit_test(test_shared_graph),
         cmocka_unit_test(test_small_and_contract),
         cmocka_unit_test(test_out_of_memory),
         cmocka_unit_test(test_objects_with_box_outliers),
