@@ -6,6 +6,7 @@
 #define PKSS_INTERNAL_H
 
 #include "pkss.h"
+#include "pkss_shared.h" /* PKSS_EDGES_SIZE, the shared search definitions */
 
 #include <stdarg.h>
 #include <stddef.h>
@@ -226,6 +227,26 @@ typedef struct pkss__search_input {
     const float *offsets;       /* n_offsets x 3 binning centres */
     int use_features;
 } pkss__search_input;
+
+/* The assembled search of two clouds (search_setup.c): everything in
+ * pkss__search_input plus the storage it points into. `in` points into this
+ * struct: do not copy or move it after building. */
+typedef struct pkss__search_setup {
+    int n_az;
+    float edges[PKSS_EDGES_SIZE];
+    double R_pre[9];            /* PCA pre-alignment of the source */
+    pkss__rotation_set rot;
+    int n_offsets;
+    float *offsets;
+    float *src_pts, *tgt_pts, *src_feat, *tgt_feat;
+    pkss__search_input in;
+} pkss__search_setup;
+
+pkss_status pkss__search_setup_build(const pkss__params *p,
+                                     const pkss_cloud *src,
+                                     const pkss_cloud *tgt,
+                                     pkss__search_setup *s);
+void pkss__search_setup_free(pkss__search_setup *s);
 
 /* scores: n_rotations * n_offsets G_K values, rotation-major. Gc/Gf may be
  * NULL; otherwise they get G_contour and G_feature. */

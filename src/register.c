@@ -25,45 +25,6 @@ void pkss_result_init(pkss_result *result)
     result->struct_size = sizeof *result;
 }
 
-/* Offsets of the template's binning centre along its PCA axes (Eq. 11-12,
- * SPEC 5): q = (a E_u u + b E_v v + c E_w w) / 8, a, b, c in -h..h. */
-static float *build_offsets(const pkss_cloud *tgt, int N, int *count)
-{
-    int h = N / 2, n = N * N * N;
-    float *q = pkss__malloc((size_t)n * 3 * sizeof(float));
-    if (!q)
-        return NULL;
-    int k = 0;
-    for (int a = -h; a <= h; ++a)
-        for (int b = -h; b <= h; ++b)
-            for (int c = -h; c <= h; ++c) {
-                double f[3] = {a * tgt->half_extent[0] / 8.0,
-                               b * tgt->half_extent[1] / 8.0,
-                               c * tgt->half_extent[2] / 8.0};
-                for (int d = 0; d < 3; ++d)
-                    q[3 * k + d] = (float)(tgt->axes[3 * d] * f[0] +
-                                           tgt->axes[3 * d + 1] * f[1] +
-                                           tgt->axes[3 * d + 2] * f[2]);
-                ++k;
-            }
-    *count = n;
-    return q;
-}
-
-static void to_float(const double *in, size_t n, const double *R, float *out)
-{
-    for (size_t i = 0; i < n; ++i) {
-        double y[3];
-        if (R)
-            pkss__mat3_apply(R, in + 3 * i, y);
-        else
-            memcpy(y, in + 3 * i, sizeof y);
-        out[3 * i] = (float)y[0];
-        out[3 * i + 1] = (float)y[1];
-        out[3 * i + 2] = (float)y[2];
-    }
-}
-
 /* Eq. 7: the local rotation O_r of a kept candidate, from the matched
  * contour representatives in the candidate's frame (host side, double). */
 static void local_rotation(const float *src_pts, int n_src,
@@ -175,65 +136,32 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
     const pkss__params *p = &ctx->params;
     pkss_status st = PKSS_OK;
     double t0 = pkss__now();
-    int n_az = p->cell_steps ? p->cell_steps : p->rotation_steps;
-    float edges[PKSS_EDGES_SIZE];
-    pkss__cell_edges(n_az, edges);
-
-    /* SPEC 2.7: rotate the source into the template's principal frame. */
-    double R_pre[9];
-    if (p->pca_prealign) {
-        double St[9];
-        pkss__mat3_transpose(src->axes, St);
-        pkss__mat3_mul(tgt->axes, St, R_pre);
-    } else {
-        pkss__mat3_identity(R_pre);
-    }
-
-    pkss__rotation_set rot;
-    float *src_pts = NULL, *tgt_pts = NULL, *src_feat = NULL, *tgt_feat = NULL;
-    float *offsets = NULL, *scores = NULL, *gc = NULL, *gf = NULL;
+    pkss__search_setup *ss = pkss__calloc(1, sizeof *ss);
+    float *scores = NULL, *gc = NULL, *gf = NULL;
     pkss__pick picks[PKSS_MAX_CANDIDATES];
-    memset(&rot, 0, sizeof rot);
-    st = pkss__rotations_build(p, &rot);
+    if (!ss)
+        return pkss__fail(ctx, PKSS_ERR_OUT_OF_MEMORY, "out of memory");
+    st = pkss__search_setup_build(p, src, tgt, ss);
     if (st != PKSS_OK)
         goto oom;
-    int n_off = 0;
-    offsets = build_offsets(tgt, p->offset_steps, &n_off);
-    src_pts = pkss__malloc(src->m * 3 * sizeof(float));
-    tgt_pts = pkss__malloc(tgt->m * 3 * sizeof(float));
-    src_feat = pkss__malloc((src->n_feat + 1) * 3 * sizeof(float));
-    tgt_feat = pkss__malloc((tgt->n_feat + 1) * 3 * sizeof(float));
-    size_t total = rot.n_rotations * (size_t)n_off;
+    const pkss__search_input *in = &ss->in;
+    const pkss__rotation_set *rot = &ss->rot;
+    const int n_az = ss->n_az, n_off = ss->n_offsets;
+    const float *edges = ss->edges, *offsets = ss->offsets;
+    size_t total = rot->n_rotations * (size_t)n_off;
     scores = pkss__malloc(total * sizeof(float));
     gc = pkss__malloc(total * sizeof(float));
     gf = pkss__malloc(total * sizeof(float));
-    if (!offsets || !src_pts || !tgt_pts || !src_feat || !tgt_feat || !scores ||
-        !gc || !gf)
+    if (!scores || !gc || !gf)
         goto oom;
-    to_float(src->pre, src->m, R_pre, src_pts);
-    to_float(tgt->pre, tgt->m, NULL, tgt_pts);
-    for (size_t i = 0; i < src->n_feat; ++i)
-        memcpy(src_feat + 3 * i, src_pts + 3 * (size_t)src->feat[i], 3 * sizeof(float));
-    for (size_t i = 0; i < tgt->n_feat; ++i)
-        memcpy(tgt_feat + 3 * i, tgt_pts + 3 * (size_t)tgt->feat[i], 3 * sizeof(float));
-
-    pkss__search_input in = {
-        .n_az = n_az, .edges = edges,
-        .src_pts = src_pts, .n_src = (int)src->m,
-        .src_feat = src_feat, .n_src_feat = (int)src->n_feat,
-        .tgt_pts = tgt_pts, .n_tgt = (int)tgt->m,
-        .tgt_feat = tgt_feat, .n_tgt_feat = (int)tgt->n_feat,
-        .rot = &rot, .n_offsets = n_off, .offsets = offsets,
-        .use_features = p->use_features,
-    };
     if (ctx->backend_in_use == PKSS_BACKEND_OPENCL)
-        st = pkss__search_cl(ctx, &in, scores, gc, gf);
+        st = pkss__search_cl(ctx, in, scores, gc, gf);
     else
-        st = pkss__search_ref(ctx, &in, scores, gc, gf);
+        st = pkss__search_ref(ctx, in, scores, gc, gf);
     if (st != PKSS_OK)
         goto done;
     size_t kept = pkss__select_top_k(scores, gc, p->use_features ? gf : NULL,
-                                     &rot, (size_t)n_off, (size_t)p->top_k,
+                                     rot, (size_t)n_off, (size_t)p->top_k,
                                      picks);
     if (kept == SIZE_MAX)
         goto oom;
@@ -247,7 +175,7 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
     }
     double t1 = pkss__now();
     res->timings.search = t1 - t0;
-    res->n_rotations = (uint32_t)rot.n_rotations;
+    res->n_rotations = (uint32_t)rot->n_rotations;
     res->n_offsets = (uint32_t)n_off;
     res->n_evaluations = (uint64_t)total;
 
@@ -273,11 +201,11 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
     for (size_t c = 0; c < kept; ++c) {
         const pkss__pick *pk = &picks[c];
         double O_r[9], RfRpre[9];
-        local_rotation(src_pts, (int)src->m, tgt_pts, (int)tgt->m, &rot,
+        local_rotation(ss->src_pts, (int)src->m, ss->tgt_pts, (int)tgt->m, rot,
                        pk->rotation, offsets + 3 * (size_t)pk->offset, n_az,
                        edges, O_r);
         pkss__pose init;
-        pkss__mat3_mul(rot.R + 9 * (size_t)pk->rotation, R_pre, RfRpre);
+        pkss__mat3_mul(rot->R + 9 * (size_t)pk->rotation, ss->R_pre, RfRpre);
         pkss__mat3_mul(O_r, RfRpre, init.R);
         init.s = 1.0; /* pre-shape units: sigma_t / sigma_s in caller units */
         for (int d = 0; d < 3; ++d)
@@ -361,12 +289,8 @@ oom:
     st = pkss__fail(ctx, PKSS_ERR_OUT_OF_MEMORY,
                     "out of memory during the search/refinement");
 done:
-    pkss__rotations_free(&rot);
-    pkss__free(src_pts);
-    pkss__free(tgt_pts);
-    pkss__free(src_feat);
-    pkss__free(tgt_feat);
-    pkss__free(offsets);
+    pkss__search_setup_free(ss);
+    pkss__free(ss);
     pkss__free(scores);
     pkss__free(gc);
     pkss__free(gf);

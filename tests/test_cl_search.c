@@ -99,7 +99,7 @@ static void compare_on(pkss_context *ctx, const char *file, uint64_t seed,
     pkss_status st = search_fixture_build(ctx, src, ns, tgt, nt, &f);
     if (st != PKSS_OK)
         fail_msg("%s: %s", pkss_status_name(st), pkss_context_last_error(ctx));
-    size_t total_pairs = f.rot.n_rotations * (size_t)f.n_off;
+    size_t total_pairs = f.setup.rot.n_rotations * (size_t)f.setup.n_offsets;
     float *ref = malloc(3 * total_pairs * sizeof(float));
     float *dev = malloc(3 * total_pairs * sizeof(float));
     assert_non_null(ref);
@@ -107,9 +107,9 @@ static void compare_on(pkss_context *ctx, const char *file, uint64_t seed,
     /* poison: every entry must be written */
     for (size_t i = 0; i < 3 * total_pairs; ++i)
         dev[i] = NAN;
-    assert_int_equal(pkss__search_ref(ctx, &f.in, ref, ref + total_pairs,
+    assert_int_equal(pkss__search_ref(ctx, &f.setup.in, ref, ref + total_pairs,
                                       ref + 2 * total_pairs), PKSS_OK);
-    st = pkss__search_cl(ctx, &f.in, dev, dev + total_pairs, dev + 2 * total_pairs);
+    st = pkss__search_cl(ctx, &f.setup.in, dev, dev + total_pairs, dev + 2 * total_pairs);
     if (st != PKSS_OK)
         fail_msg("pkss__search_cl: %s: %s", pkss_status_name(st),
                  pkss_context_last_error(ctx));
@@ -127,7 +127,7 @@ static void compare_on(pkss_context *ctx, const char *file, uint64_t seed,
     }
     printf("  %-52s %4zu rot x %3d off, cells %2d: max |diff| %.3g (%s[%zu]), "
            "%.2f %% bit-equal, %zu guarded\n",
-           file, f.rot.n_rotations, f.n_off, f.in.n_az, max_diff,
+           file, f.setup.rot.n_rotations, f.setup.n_offsets, f.setup.in.n_az, max_diff,
            worst < total_pairs ? "G_K" : worst < 2 * total_pairs ? "G_c" : "G_f",
            worst % total_pairs, 100.0 * equal / (3.0 * total_pairs), guarded);
     fflush(stdout);
@@ -138,13 +138,13 @@ static void compare_on(pkss_context *ctx, const char *file, uint64_t seed,
     assert_true(guarded < total_pairs);
 
     int top_k = ctx->params.top_k;
-    const float *gf_ref = f.in.use_features ? ref + 2 * total_pairs : NULL;
-    const float *gf_dev = f.in.use_features ? dev + 2 * total_pairs : NULL;
+    const float *gf_ref = f.setup.in.use_features ? ref + 2 * total_pairs : NULL;
+    const float *gf_dev = f.setup.in.use_features ? dev + 2 * total_pairs : NULL;
     pkss__pick a[PKSS_MAX_CANDIDATES], b[PKSS_MAX_CANDIDATES];
-    size_t ka = pkss__select_top_k(ref, ref + total_pairs, gf_ref, &f.rot,
-                                   (size_t)f.n_off, (size_t)top_k, a);
-    size_t kb = pkss__select_top_k(dev, dev + total_pairs, gf_dev, &f.rot,
-                                   (size_t)f.n_off, (size_t)top_k, b);
+    size_t ka = pkss__select_top_k(ref, ref + total_pairs, gf_ref, &f.setup.rot,
+                                   (size_t)f.setup.n_offsets, (size_t)top_k, a);
+    size_t kb = pkss__select_top_k(dev, dev + total_pairs, gf_dev, &f.setup.rot,
+                                   (size_t)f.setup.n_offsets, (size_t)top_k, b);
     assert_int_equal(ka, kb);
     assert_true(ka > 0);
     for (size_t i = 0; i < ka; ++i) {
@@ -530,7 +530,7 @@ static void *thread_main(void *arg)
         job->st = pkss_context_prepare(ctx);
     float *dev = malloc(3 * job->total * sizeof(float));
     for (int rep = 0; rep < 3 && job->st == PKSS_OK && dev; ++rep) {
-        job->st = pkss__search_cl(ctx, &job->f->in, dev, dev + job->total,
+        job->st = pkss__search_cl(ctx, &job->f->setup.in, dev, dev + job->total,
                                   dev + 2 * job->total);
         for (size_t i = 0; job->st == PKSS_OK && i < 3 * job->total; ++i) {
             double d = fabs((double)dev[i] - (double)job->ref[i]);
@@ -552,9 +552,9 @@ static void test_threads(void **state)
     double *cloud = pkss_test_load(REAL_SCANS[0], &n);
     search_fixture f;
     assert_int_equal(search_fixture_build(ctx, cloud, n, cloud, n, &f), PKSS_OK);
-    size_t total = f.rot.n_rotations * (size_t)f.n_off;
+    size_t total = f.setup.rot.n_rotations * (size_t)f.setup.n_offsets;
     float *ref = malloc(3 * total * sizeof(float));
-    assert_int_equal(pkss__search_ref(ctx, &f.in, ref, ref + total, ref + 2 * total), PKSS_OK);
+    assert_int_equal(pkss__search_ref(ctx, &f.setup.in, ref, ref + total, ref + 2 * total), PKSS_OK);
     enum { N_THREADS = 4 };
     pthread_t th[N_THREADS];
     thread_job job[N_THREADS];

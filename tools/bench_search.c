@@ -184,7 +184,7 @@ static int time_search(pkss_context *ctx, const search_fixture *f,
                        stage_times *out)
 {
     const int cl = ctx->backend_in_use == PKSS_BACKEND_OPENCL;
-    size_t total = f->rot.n_rotations * (size_t)f->n_off;
+    size_t total = f->setup.rot.n_rotations * (size_t)f->setup.n_offsets;
     float *s = malloc(3 * total * sizeof(float));
     float tab[2 * PKSS_MAX_CELLS * 4];
     double *bin = malloc((size_t)g_runs * sizeof(double));
@@ -196,12 +196,12 @@ static int time_search(pkss_context *ctx, const search_fixture *f,
     for (int r = -1; r < g_runs && ok; ++r) { /* r = -1: warm-up */
         double c0 = cpu_now();
         double t0 = pkss__now();
-        pkss_status st = cl ? pkss__search_cl(ctx, &f->in, s, s + total, s + 2 * total)
-                            : pkss__search_ref(ctx, &f->in, s, s + total, s + 2 * total);
+        pkss_status st = cl ? pkss__search_cl(ctx, &f->setup.in, s, s + total, s + 2 * total)
+                            : pkss__search_ref(ctx, &f->setup.in, s, s + total, s + 2 * total);
         double t1 = pkss__now();
         pkss__pick picks[PKSS_MAX_CANDIDATES];
-        size_t kept = pkss__select_top_k(s, s + total, f->in.use_features ? s + 2 * total : NULL,
-                                         &f->rot, (size_t)f->n_off,
+        size_t kept = pkss__select_top_k(s, s + total, f->setup.in.use_features ? s + 2 * total : NULL,
+                                         &f->setup.rot, (size_t)f->setup.n_offsets,
                                          (size_t)ctx->params.top_k, picks);
         double t2 = pkss__now();
         double c2 = cpu_now();
@@ -217,7 +217,7 @@ static int time_search(pkss_context *ctx, const search_fixture *f,
             pkss__cl_stage_seconds(ctx, &bin[r], &score[r]);
         } else {
             double tb = pkss__now();
-            ref_binning(&f->in, tab);
+            ref_binning(&f->setup.in, tab);
             bin[r] = pkss__now() - tb;
             score[r] = (t1 - t0) - bin[r];
         }
