@@ -41,7 +41,7 @@ build/venv/bin/python -m pytest bindings/python/tests -q
 
 echo "== [4/4] benchmark smoke run (tools/bench/run.py --quick)"
 if [ -f tools/bench/run.py ]; then
-  build/venv/bin/python -m pip install -q -r tools/bench/requirements-quick.txt 2>/dev/null || true
+  build/venv/bin/python -m pip install -q -r tools/bench/requirements-quick.txt
   build/venv/bin/python tools/bench/run.py --quick --out build/bench-quick
 fi
 echo "== all test stages passed"

@@ -1,0 +1,81 @@
+# SPDX-License-Identifier: MIT
+"""Unit tests of the benchmark's own parts (readers, generator, metrics).
+Run: python3 -m pytest tools/bench/test_bench.py -q   (needs numpy, scipy)."""
+import os
+import sys
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+
+import cases as C  # noqa: E402
+import readers  # noqa: E402
+from metrics import Evaluator, decompose  # noqa: E402
+
+needs_data = pytest.mark.skipif(not os.path.isdir(C.DATA), reason="shared/data not found")
+
+
+@needs_data
+@pytest.mark.parametrize("orig,conv", [
+    ("stanford_bunny/bun000.ply", "stanford_bunny/converted/bun000.ply"),  # ascii PLY
+    ("pcl/chef.pcd", "pcl/converted/chef.ply"),                           # binary_compressed PCD
+    ("pcl/bun4.pcd", "pcl/converted/bun4.ply"),                           # ascii PCD
+    ("libpointmatcher/car_cloud400.csv", "libpointmatcher/converted/car_cloud400.ply"),
+    ("3dmatch/geotransformer_demo/src.npy", "3dmatch/geotransformer_demo/converted/src.ply"),
+])
+def test_readers_agree_with_converted_copies(orig, conv):
+    a = readers.read_points(os.path.join(C.DATA, orig))
+    b = readers.read_points(os.path.join(C.DATA, conv))
+    assert a.shape == b.shape
+    assert np.abs(a - b).max() < 1e-6
+
+
+@needs_data
+def test_kitti_and_text_counts():
+    assert readers.read_points(os.path.join(C.DATA, "kitti_patchworkpp/000000.bin")).shape[0] > 100000
+    assert readers.read_points(os.path.join(C.DATA, "goicp/model_bunny.txt")).shape == (35947, 3)
+
+
+def test_random_rotation_is_rotation():
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        R = C.random_rotation(rng)
+        assert np.allclose(R @ R.T, np.eye(3), atol=1e-12)
+        assert np.isclose(np.linalg.det(R), 1.0)
+
+
+@needs_data
+@pytest.mark.parametrize("case", C.SYNTH_CASES)
+def test_generator_is_seeded_and_gt_is_exact(case):
+    a = C.make_synthetic("chef", case, 0)
+    b = C.make_synthetic("chef", case, 0)
+    assert np.array_equal(a.source, b.source) and np.array_equal(a.T_gt, b.T_gt)
+    s = a.meta["gt_scale"]
+    assert 0.5 - 1e-9 <= s <= 2.0 + 1e-9
+    ev = Evaluator(a)
+    m = ev(a.T_gt)
+    assert m["rre_deg"] < 1e-4 and m["scale_err_pct"] < 1e-6 and m["rte_pct"] < 1e-6
+    assert m["strict"]
+    if case == "similarity":
+        assert m["mse"] < 1e-20 and m["rr"]
+    if case == "defective":
+        n = len(C.load_object("chef"))
+        assert abs(len(a.source) - (1 - a.meta["missing"]) * n) <= 1
+
+
+def test_metrics_known_errors():
+    rng = np.random.default_rng(1)
+    x = rng.normal(size=(500, 3))
+    case = C.Case("t", "similarity", "t", 0, 0, x, x.copy(), np.eye(4), {})
+    ev = Evaluator(case)
+    ang = np.radians(10.0)
+    Rz = np.array([[np.cos(ang), -np.sin(ang), 0], [np.sin(ang), np.cos(ang), 0], [0, 0, 1]])
+    T = C.similarity(1.03, Rz, np.zeros(3))
+    m = ev(T)
+    assert abs(m["rre_deg"] - 10.0) < 1e-9
+    assert abs(m["scale_err_pct"] - 3.0) < 1e-9
+    assert abs(m["gt_cos"] - (1 + 2 * np.cos(ang)) / 3) < 1e-12
+    assert not m["strict"]
+    s, R, t = decompose(T)
+    assert np.isclose(s, 1.03) and np.allclose(R, Rz)
