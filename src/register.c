@@ -130,6 +130,80 @@ static void deliver(pkss_result *dst, const pkss_result *src)
     dst->struct_size = keep;
 }
 
+/* Per-candidate work of the refinement that is independent across
+ * candidates, spread over two threads (each ICP run owns its buffers). */
+enum { CAND_START = 0, CAND_OVERLAP = 1 };
+
+typedef struct cand_work {
+    const pkss__search_setup *ss;
+    const pkss_cloud *src, *tgt;
+    const pkss__pick *picks;
+    const pkss__icp_view *sv, *tv, *svc, *tvc;
+    const pkss__icp_schedule *coarse;
+    int refine;
+    pkss__icp_result *ir;   /* per candidate */
+    pkss_status *st;        /* per candidate */
+    const int *list;        /* candidates to process */
+    size_t n_list;
+    int phase;
+    size_t first, stride;
+} cand_work;
+
+/* CAND_START: the initial pose O_r * O_f * R_pre (Eq. 7-9) and the coarse
+ * level (or, unrefined, the overlap at that pose). CAND_OVERLAP: the
+ * overlap score of the pose in ir[c] on all points. */
+static void cand_one(const cand_work *w, int c)
+{
+    pkss__icp_result *r = &w->ir[c];
+    if (w->phase == CAND_OVERLAP) {
+        w->st[c] = pkss__icp_overlap(w->sv, w->tv, &r->pose, &r->overlap, &r->rms);
+        return;
+    }
+    const pkss__search_setup *ss = w->ss;
+    const pkss__pick *pk = &w->picks[c];
+    const float *offset = ss->offsets + 3 * (size_t)pk->offset;
+    double O_r[9], RfRpre[9];
+    local_rotation(ss->src_pts, (int)w->src->m, ss->tgt_pts, (int)w->tgt->m,
+                   &ss->rot, pk->rotation, offset, ss->n_az, ss->edges, O_r);
+    pkss__pose init;
+    pkss__mat3_mul(ss->rot.R + 9 * (size_t)pk->rotation, ss->R_pre, RfRpre);
+    pkss__mat3_mul(O_r, RfRpre, init.R);
+    init.s = 1.0; /* pre-shape units: sigma_t / sigma_s in caller units */
+    for (int d = 0; d < 3; ++d)
+        init.t[d] = offset[d];
+    if (w->refine) {
+        w->st[c] = pkss__icp_run(w->svc, w->tvc, w->coarse, &init, r);
+    } else {
+        r->pose = init;
+        r->iterations = 0;
+        w->st[c] = pkss__icp_overlap(w->sv, w->tv, &init, &r->overlap, &r->rms);
+    }
+}
+
+static void *cand_worker(void *arg)
+{
+    const cand_work *w = arg;
+    for (size_t k = w->first; k < w->n_list; k += w->stride)
+        cand_one(w, w->list[k]);
+    return NULL;
+}
+
+static void for_each_candidate(const cand_work *w)
+{
+    cand_work a = *w, b = *w;
+    a.first = 0;
+    b.first = 1;
+    a.stride = b.stride = 2;
+    pthread_t th;
+    if (w->n_list > 1 && pthread_create(&th, NULL, cand_worker, &b) == 0) {
+        cand_worker(&a);
+        pthread_join(th, NULL);
+    } else {
+        a.stride = 1;
+        cand_worker(&a);
+    }
+}
+
 static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
                        const pkss_cloud *tgt, pkss_result *res)
 {
@@ -146,8 +220,7 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
         goto oom;
     const pkss__search_input *in = &ss->in;
     const pkss__rotation_set *rot = &ss->rot;
-    const int n_az = ss->n_az, n_off = ss->n_offsets;
-    const float *edges = ss->edges, *offsets = ss->offsets;
+    const int n_off = ss->n_offsets;
     size_t total = rot->n_rotations * (size_t)n_off;
     scores = pkss__malloc(total * sizeof(float));
     gc = pkss__malloc(total * sizeof(float));
@@ -197,30 +270,21 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
      * linearly from ~20 % off, so the full level may take up to 100. */
     static const pkss__icp_schedule full = {6.0, 30, 100, 1};
     pkss__icp_result ir[PKSS_MAX_CANDIDATES];
-    int order[PKSS_MAX_CANDIDATES];
+    pkss_status cst[PKSS_MAX_CANDIDATES];
+    int order[PKSS_MAX_CANDIDATES], list[PKSS_MAX_CANDIDATES];
+    cand_work cw = {ss, src, tgt, picks, &sv, &tv, &svc, &tvc, &coarse,
+                    p->refine, ir, cst, list, kept, CAND_START, 0, 1};
     for (size_t c = 0; c < kept; ++c) {
-        const pkss__pick *pk = &picks[c];
-        double O_r[9], RfRpre[9];
-        local_rotation(ss->src_pts, (int)src->m, ss->tgt_pts, (int)tgt->m, rot,
-                       pk->rotation, offsets + 3 * (size_t)pk->offset, n_az,
-                       edges, O_r);
-        pkss__pose init;
-        pkss__mat3_mul(rot->R + 9 * (size_t)pk->rotation, ss->R_pre, RfRpre);
-        pkss__mat3_mul(O_r, RfRpre, init.R);
-        init.s = 1.0; /* pre-shape units: sigma_t / sigma_s in caller units */
-        for (int d = 0; d < 3; ++d)
-            init.t[d] = offsets[3 * (size_t)pk->offset + d];
-        if (p->refine) {
-            st = pkss__icp_run(&svc, &tvc, &coarse, &init, &ir[c]);
-        } else {
-            ir[c].pose = init;
-            ir[c].iterations = 0;
-            st = pkss__icp_overlap(&sv, &tv, &init, &ir[c].overlap, &ir[c].rms);
-        }
-        if (st != PKSS_OK)
-            goto oom;
         order[c] = (int)c;
+        list[c] = (int)c;
     }
+    /* every candidate's local rotation and coarse level, two at a time */
+    for_each_candidate(&cw);
+    for (size_t c = 0; c < kept; ++c)
+        if (cst[c] != PKSS_OK) {
+            st = cst[c];
+            goto oom;
+        }
     int best = 0;
     if (p->refine) {
         /* candidates by coarse overlap, best first (stable) */
@@ -242,6 +306,7 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
         while (n_full > 1 &&
                ir[order[n_full - 1]].overlap < PKSS_FULL_REFINE_RATIO * ir[order[0]].overlap)
             --n_full;
+        size_t n_rest = 0;
         for (size_t i = 0; i < kept; ++i) {
             int c = order[i];
             int same_basin = 0;
@@ -250,13 +315,21 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
             if (i < n_full && !same_basin) {
                 pkss__pose start = ir[c].pose;
                 st = pkss__icp_run(&sv, &tv, &full, &start, &ir[c]);
+                if (st != PKSS_OK)
+                    goto oom;
             } else {
-                st = pkss__icp_overlap(&sv, &tv, &ir[c].pose, &ir[c].overlap,
-                                       &ir[c].rms);
+                list[n_rest++] = c;
             }
-            if (st != PKSS_OK)
-                goto oom;
         }
+        /* the others' overlap scores on all points (reported evidence) */
+        cw.phase = CAND_OVERLAP;
+        cw.n_list = n_rest;
+        for_each_candidate(&cw);
+        for (size_t i = 0; i < n_rest; ++i)
+            if (cst[list[i]] != PKSS_OK) {
+                st = cst[list[i]];
+                goto oom;
+            }
         best = order[0];
         for (size_t i = 1; i < n_full; ++i)
             if (ir[order[i]].overlap > ir[best].overlap)
