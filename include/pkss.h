@@ -26,7 +26,10 @@
  * THREAD SAFETY: global functions (version, status strings, parameter
  * bounds, device listing) are thread-safe. A context, and a cloud, must not
  * be used by two threads at once; use one context per thread. Different
- * contexts are independent and may run concurrently.
+ * contexts are independent and may run concurrently. Internally a call may
+ * use one extra thread (the two clouds' pre-processing, the ICP's two
+ * correspondence directions and its candidates run two at a time), plus
+ * the OpenCL device's own threads.
  *
  * The declarations below contain no macros except PKSS_API, so that Python's
  * cffi can parse the block between the PKSS_CDEF markers as it is.
