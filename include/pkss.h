@@ -368,7 +368,9 @@ typedef struct pkss_candidate {
     double score_contour;       /* G of the contour representatives */
     double score_feature;       /* G of the feature representatives */
     double rms;                 /* RMS of final mutual pairs, target units */
-    double overlap;             /* overlap score in [0, 1] (SPEC 6) */
+    double overlap;             /* overlap score in [0, 1]: sqrt(f_s f_t),
+                                   f = share of each cloud's resampled
+                                   points within 2 spacings of the other */
     uint32_t rotation_index;    /* index into the rotation candidate set */
     uint32_t offset_index;      /* index into the offset candidate set */
 } pkss_candidate;

@@ -293,7 +293,8 @@ typedef struct pkss__icp_schedule {
 typedef struct pkss__icp_result {
     pkss__pose pose;
     double rms;      /* of the final mutual pairs, pre-shape template units */
-    double overlap;  /* SPEC 6 overlap score on the views used */
+    double overlap;  /* overlap score on the views used (icp.c) */
+    double cover[2]; /* its parts: shares of source, template covered */
     int iterations;
 } pkss__icp_result;
 
@@ -302,6 +303,12 @@ typedef struct pkss__icp_result {
 pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
                           const pkss__icp_schedule *sched,
                           const pkss__pose *init, pkss__icp_result *out);
+/* The scale that maximises the overlap score, by a pattern search in log
+ * scale with a short rigid settle at each trial; io holds the start pose
+ * on entry and the best pose found (with its overlap and RMS) on exit. */
+pkss_status pkss__icp_scale_search(const pkss__icp_view *src,
+                                   const pkss__icp_view *tgt,
+                                   pkss__icp_result *io);
 /* Overlap score and RMS of mutual pairs closer than 2h at pose. */
 pkss_status pkss__icp_overlap(const pkss__icp_view *src,
                               const pkss__icp_view *tgt,
