@@ -36,6 +36,7 @@
 #define ICP_GATE_FLOOR 3.0
 #define ICP_MIN_PAIRS 10
 #define ICP_OVERLAP_DIST 2.0
+#define ICP_SAME_BASIN_RAD (1.0 * 3.14159265358979323846 / 180.0)
 
 void pkss__icp_view_full(const pkss_cloud *c, pkss__icp_view *v)
 {
@@ -287,10 +288,30 @@ pkss_status pkss__icp_overlap(const pkss__icp_view *src,
     return PKSS_OK;
 }
 
+/* Same rigid minimum: within 1 degree, 1 template spacing and 1 % scale
+ * (ICP steps near a minimum are far smaller; distinct minima of the shapes
+ * we measured lie >= 15 degrees apart). */
+static int known_basin(const pkss__icp_basins *b, const pkss__pose *T, double h)
+{
+    for (int k = 0; k < b->n; ++k) {
+        const pkss__pose *q = &b->rigid_end[k];
+        double dt2 = dist2(T->t, q->t);
+        if (pkss__rotation_angle(T->R, q->R) < ICP_SAME_BASIN_RAD &&
+            dt2 < h * h && fabs(T->s / q->s - 1.0) < 0.01)
+            return b->owner[k];
+    }
+    return -1;
+}
+
 pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
                           const pkss__icp_schedule *sched,
-                          const pkss__pose *init, pkss__icp_result *out)
+                          const pkss__pose *init, pkss__icp_basins *basins,
+                          int id, int *duplicate_of, pkss__icp_result *out)
 {
+    if (duplicate_of)
+        *duplicate_of = -1;
+    if (!sched->free_scale)
+        basins = NULL;
     icp_work w;
     if (!work_alloc(&w, src->m, tgt->m))
         return PKSS_ERR_OUT_OF_MEMORY;
@@ -339,6 +360,15 @@ pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
             gate *= ICP_GATE_DECAY;
         if (gate < ICP_GATE_FLOOR * h)
             gate = ICP_GATE_FLOOR * h;
+        if (basins && !scale_stage && at_floor) {
+            int dup = known_basin(basins, &T, h);
+            if (dup >= 0) {
+                if (duplicate_of)
+                    *duplicate_of = dup;
+                ++it;
+                break;
+            }
+        }
         if (at_floor && change < 1e-6) {
             if (scale_stage || !sched->free_scale) {
                 ++it;
@@ -346,6 +376,12 @@ pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
             }
             if (it < sched->rigid_iters - 1)
                 it = sched->rigid_iters - 1; /* rigid converged: free the scale */
+        }
+        if (basins && sched->free_scale && it + 1 == sched->rigid_iters &&
+            basins->n < PKSS_MAX_CANDIDATES) {
+            /* the rigid stage ends here (converged or out of iterations) */
+            basins->rigid_end[basins->n] = T;
+            basins->owner[basins->n++] = id;
         }
     }
     out->pose = T;
@@ -423,7 +459,7 @@ pkss_status pkss__icp_scale_search(const pkss__icp_view *src,
                 pkss__pose trial = best.pose;
                 rescale_about(&trial, c, sgn > 0 ? f : 1.0 / f);
                 pkss__icp_result r;
-                st = pkss__icp_run(src, tgt, &settle, &trial, &r);
+                st = pkss__icp_run(src, tgt, &settle, &trial, NULL, 0, NULL, &r);
                 if (st != PKSS_OK)
                     goto out;
                 if (r.overlap > next.overlap) {

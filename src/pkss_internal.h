@@ -298,11 +298,24 @@ typedef struct pkss__icp_result {
     int iterations;
 } pkss__icp_result;
 
+/* Rigid-stage minima already reached by earlier runs (full schedule): a
+ * run whose rigid stage arrives at one of them stops there, since from the
+ * same rigid minimum the scale stage would end at the same pose. */
+typedef struct pkss__icp_basins {
+    pkss__pose rigid_end[PKSS_MAX_CANDIDATES];
+    int owner[PKSS_MAX_CANDIDATES];  /* caller's id of the run that found it */
+    int n;
+} pkss__icp_basins;
+
 /* SPEC 6: overlap-aware similarity ICP of the source view onto the template
- * view from init (pre-shape coordinates of both). */
+ * view from init (pre-shape coordinates of both). With basins (may be
+ * NULL) and a free scale: stops early with *duplicate_of = the owner of a
+ * known rigid minimum the run reached, else sets it to -1 and records the
+ * run's own rigid minimum under id. */
 pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
                           const pkss__icp_schedule *sched,
-                          const pkss__pose *init, pkss__icp_result *out);
+                          const pkss__pose *init, pkss__icp_basins *basins,
+                          int id, int *duplicate_of, pkss__icp_result *out);
 /* The scale that maximises the overlap score, by a pattern search in log
  * scale with a short rigid settle at each trial; io holds the start pose
  * on entry and the best pose found (with its overlap and RMS) on exit. */

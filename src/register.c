@@ -180,7 +180,7 @@ static void cand_one(const cand_work *w, int c)
     for (int d = 0; d < 3; ++d)
         init.t[d] = offset[d];
     if (w->refine) {
-        w->st[c] = pkss__icp_run(w->svc, w->tvc, w->coarse, &init, r);
+        w->st[c] = pkss__icp_run(w->svc, w->tvc, w->coarse, &init, NULL, 0, NULL, r);
     } else {
         r->pose = init;
         r->iterations = 0;
@@ -281,6 +281,8 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
     pkss_status cst[PKSS_MAX_CANDIDATES];
     int order[PKSS_MAX_CANDIDATES], list[PKSS_MAX_CANDIDATES];
     int refined[PKSS_MAX_CANDIDATES] = {0};
+    pkss__icp_basins basins;
+    basins.n = 0;
     cand_work cw = {ss, src, tgt, picks, &sv, &tv, &svc, &tvc, &coarse,
                     p->refine, ir, cst, list, kept, CAND_START, 0, 1};
     for (size_t c = 0; c < kept; ++c) {
@@ -330,9 +332,16 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
                         goto oom;
                 }
                 pkss__pose start = scaled.pose;
-                st = pkss__icp_run(&sv, &tv, &full, &start, &ir[c]);
+                int dup;
+                st = pkss__icp_run(&sv, &tv, &full, &start, &basins, c, &dup, &ir[c]);
                 if (st != PKSS_OK)
                     goto oom;
+                if (dup >= 0) {
+                    /* reached a refined candidate's rigid minimum: that
+                     * one stands for the basin (reported at this pose) */
+                    refined[c] = 0;
+                    list[n_rest++] = c;
+                }
             } else {
                 list[n_rest++] = c;
             }
