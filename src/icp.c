@@ -337,6 +337,18 @@ pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
                     w.pi[n] = w.bwd[j];
                     w.pj[n++] = (uint32_t)j;
                 }
+        } else if (sched->free_scale == PKSS__SCALE_SOURCE_PART) {
+            for (size_t i = 0; i < src->m; ++i)
+                if (w.fwd[i] != UINT32_MAX) {
+                    w.pi[n] = (uint32_t)i;
+                    w.pj[n++] = w.fwd[i];
+                }
+        } else if (sched->free_scale == PKSS__SCALE_TEMPLATE_PART) {
+            for (size_t j = 0; j < tgt->m; ++j)
+                if (w.bwd[j] != UINT32_MAX) {
+                    w.pi[n] = w.bwd[j];
+                    w.pj[n++] = (uint32_t)j;
+                }
         } else {
             for (size_t i = 0; i < src->m; ++i) {
                 uint32_t j = w.fwd[i];

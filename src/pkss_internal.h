@@ -283,11 +283,21 @@ typedef struct pkss__icp_view {
 void pkss__icp_view_full(const pkss_cloud *c, pkss__icp_view *v);
 void pkss__icp_view_coarse(const pkss_cloud *c, pkss__icp_view *v);
 
+/* Pairs that drive the free scale. Mutual pairs by default; where one cloud
+ * shows a part of the other, every point of the part has its partner on
+ * the whole, so the part's one-way pairs are all genuine and pull an
+ * overhanging part back (register.c decides by coverage). */
+enum pkss__scale_pairs {
+    PKSS__SCALE_MUTUAL = 1,
+    PKSS__SCALE_SOURCE_PART = 2,   /* source -> template pairs */
+    PKSS__SCALE_TEMPLATE_PART = 3  /* template -> source pairs */
+};
+
 typedef struct pkss__icp_schedule {
     double gate_start;   /* in units of the template view's h */
     int rigid_iters;     /* iterations with the scale frozen */
     int max_iters;       /* all iterations */
-    int free_scale;      /* 0: rigid only */
+    int free_scale;      /* 0: rigid only; else a pkss__scale_pairs */
 } pkss__icp_schedule;
 
 typedef struct pkss__icp_result {

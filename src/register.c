@@ -24,6 +24,11 @@
  * only a part (SPEC 6 caveat; |f_s - f_t| = 0.2-0.3 on 30-50 % cut away).
  * Skipping the search on the former keeps their time unchanged. */
 #define PKSS_PART_OF_WHOLE 0.05
+/* ... and the part's own coverage at or above which it is taken to lie
+ * wholly on the other cloud, so that its one-way pairs drive the scale. A
+ * partial scan of another partial scan (bunny chin -> bun000, 47 %
+ * overlap: f = 0.6-0.8) stays with mutual pairs. */
+#define PKSS_PART_COVERED 0.9
 
 void pkss_result_init(pkss_result *result)
 {
@@ -276,7 +281,7 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
     static const pkss__icp_schedule coarse = {12.0, 14, 14, 0};
     /* SPEC 6 allows 60 iterations in all; a partial source's scale converges
      * linearly from ~20 % off, so the full level may take up to 100. */
-    static const pkss__icp_schedule full = {6.0, 30, 100, 1};
+    static const pkss__icp_schedule full = {6.0, 30, 100, PKSS__SCALE_MUTUAL};
     pkss__icp_result ir[PKSS_MAX_CANDIDATES];
     pkss_status cst[PKSS_MAX_CANDIDATES];
     int order[PKSS_MAX_CANDIDATES], list[PKSS_MAX_CANDIDATES];
@@ -326,6 +331,12 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
             refined[c] = i < n_full && !same_basin;
             if (refined[c]) {
                 pkss__icp_result scaled = ir[c];
+                pkss__icp_schedule sched = full;
+                double fs = ir[c].cover[0], ft = ir[c].cover[1];
+                if (fs >= PKSS_PART_COVERED && fs - ft > PKSS_PART_OF_WHOLE)
+                    sched.free_scale = PKSS__SCALE_SOURCE_PART;
+                else if (ft >= PKSS_PART_COVERED && ft - fs > PKSS_PART_OF_WHOLE)
+                    sched.free_scale = PKSS__SCALE_TEMPLATE_PART;
                 if (fabs(ir[c].cover[0] - ir[c].cover[1]) > PKSS_PART_OF_WHOLE) {
                     st = pkss__icp_scale_search(&svc, &tvc, &scaled);
                     if (st != PKSS_OK)
@@ -333,7 +344,7 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
                 }
                 pkss__pose start = scaled.pose;
                 int dup;
-                st = pkss__icp_run(&sv, &tv, &full, &start, &basins, c, &dup, &ir[c]);
+                st = pkss__icp_run(&sv, &tv, &sched, &start, &basins, c, &dup, &ir[c]);
                 if (st != PKSS_OK)
                     goto oom;
                 if (dup >= 0) {
