@@ -323,12 +323,24 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
                ir[order[n_full - 1]].overlap < PKSS_FULL_REFINE_RATIO * ir[order[0]].overlap)
             --n_full;
         size_t n_rest = 0;
+        double lead_overlap = 0.0; /* best overlap fully refined so far */
         for (size_t i = 0; i < kept; ++i) {
             int c = order[i];
             int same_basin = 0;
             for (size_t j = 0; j < i && j < n_full && !same_basin; ++j)
                 same_basin = same_pose(&ir[c].pose, &ir[order[j]].pose, tvc.spacing);
             refined[c] = i < n_full && !same_basin;
+            if (refined[c] && lead_overlap > 0.0) {
+                /* the coarse views' 2h tolerance is loose: re-rank against
+                 * the refined leader on all points before paying for a
+                 * full refinement */
+                double ov, rms;
+                st = pkss__icp_overlap(&sv, &tv, &ir[c].pose, &ov, &rms);
+                if (st != PKSS_OK)
+                    goto oom;
+                if (ov < PKSS_FULL_REFINE_RATIO * lead_overlap)
+                    refined[c] = 0;
+            }
             if (refined[c]) {
                 pkss__icp_result scaled = ir[c];
                 pkss__icp_schedule sched = full;
@@ -352,6 +364,8 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
                      * one stands for the basin (reported at this pose) */
                     refined[c] = 0;
                     list[n_rest++] = c;
+                } else if (ir[c].overlap > lead_overlap) {
+                    lead_overlap = ir[c].overlap;
                 }
             } else {
                 list[n_rest++] = c;
