@@ -799,6 +799,10 @@ def register(
     """Register `source` onto `target`: find s, R, t with
     ``target ~= s * R @ source + t``, without an initial guess.
 
+    Successive calls from one thread with the same parameters share one
+    :class:`Context`, so the device is opened once; results are the same as
+    with a fresh context.
+
     Parameters
     ----------
     source, target : (N, 3) array-like of real numbers, or Cloud
@@ -891,14 +895,34 @@ def register(
         Any other failure of the C library (``.status``, ``.name``,
         ``.detail``).
     """
-    with Context(points=points, rotation_steps=rotation_steps, offset_steps=offset_steps,
-                 cell_steps=cell_steps, cull_mutual=cull_mutual, cull_stat=cull_stat,
-                 use_features=use_features, feature_frac=feature_frac,
-                 pca_prealign=pca_prealign, rotation_set=rotation_set,
-                 rotation_count=rotation_count, top_k=top_k, refine=refine, seed=seed,
-                 max_raw_points=max_raw_points, drop_nonfinite=drop_nonfinite,
-                 min_points=min_points, backend=backend, device=device) as ctx:
-        return ctx.register(source, target)
+    params = dict(points=points, rotation_steps=rotation_steps, offset_steps=offset_steps,
+                  cell_steps=cell_steps, cull_mutual=cull_mutual, cull_stat=cull_stat,
+                  use_features=use_features, feature_frac=feature_frac,
+                  pca_prealign=pca_prealign, rotation_set=rotation_set,
+                  rotation_count=rotation_count, top_k=top_k, refine=refine, seed=seed,
+                  max_raw_points=max_raw_points, drop_nonfinite=drop_nonfinite,
+                  min_points=min_points, backend=backend, device=device)
+    return _thread_context(params).register(source, target)
+
+
+# register() keeps one Context per thread and reuses it while the parameters
+# stay the same: a fresh context opens the OpenCL device and loads the kernel
+# again on its first call, ~0.06 s of a 0.2 s registration (measured on the
+# bunny with PoCL). Results do not depend on it: every call starts from the
+# parameters (the seed included), and a context keeps no other state.
+_per_thread = threading.local()
+
+
+def _thread_context(params: Dict[str, Any]) -> "Context":
+    key = tuple(sorted((k, repr(v)) for k, v in params.items()))
+    cached = getattr(_per_thread, "context", None)
+    if cached is not None and cached[0] == key and not cached[1].closed:
+        return cached[1]
+    ctx = Context(**params)  # raises on bad parameters: nothing is cached then
+    if cached is not None:
+        cached[1].close()
+    _per_thread.context = (key, ctx)
+    return ctx
 
 
 def _param_section() -> str:

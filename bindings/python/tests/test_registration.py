@@ -210,3 +210,31 @@ def test_ply_reader(tmp_path):
     for name in ("a.ply", "b.ply"):
         np.testing.assert_array_equal(read_ply(tmp_path / name), xyz.astype(np.float64))
     assert DATA  # the data folder is configurable with $PKSS_DATA_DIR
+
+
+def test_register_reuses_a_context_per_thread(monkeypatch):
+    """pkss.register() opens one context per thread and parameter set, and
+    a reused context gives bit-identical results; new parameters take
+    effect (a new context)."""
+    created = []
+
+    def counting(real):
+        def create(out):
+            created.append(1)
+            return real(out)
+        return create
+
+    src = shape(2000)
+    tgt = apply(random_similarity(np.random.default_rng(11), 1.5), shape(2000, seed=4))
+    monkeypatch.setattr(pkss, "lib", LibSpy(_lib.lib, {"pkss_context_create": counting}))
+    monkeypatch.setattr(pkss, "_per_thread", threading.local())
+    params = dict(FAST, seed=3)
+    a = pkss.register(src, tgt, **params)
+    b = pkss.register(src, tgt, **params)
+    assert len(created) == 1
+    np.testing.assert_array_equal(a.transform, b.transform)
+    c = pkss.register(src, tgt, **dict(params, refine=False))
+    assert len(created) == 2
+    assert not np.array_equal(a.transform, c.transform)  # unrefined pose
+    fresh = pkss.Context(**params).register(src, tgt)
+    np.testing.assert_array_equal(a.transform, fresh.transform)
