@@ -911,18 +911,22 @@ def register(
 # bunny with PoCL). Results do not depend on it: every call starts from the
 # parameters (the seed included), and a context keeps no other state.
 _per_thread = threading.local()
+_DEFAULT_SEED = 0  # the library's default (default_params()["seed"])
 
 
 def _thread_context(params: Dict[str, Any]) -> "Context":
+    # the seed changes from call to call in seeded experiments: it is set on
+    # the reused context rather than being part of the key
+    seed = params.pop("seed")
     key = tuple(sorted((k, repr(v)) for k, v in params.items()))
     cached = getattr(_per_thread, "context", None)
-    if cached is not None and cached[0] == key and not cached[1].closed:
-        return cached[1]
-    ctx = Context(**params)  # raises on bad parameters: nothing is cached then
-    if cached is not None:
-        cached[1].close()
-    _per_thread.context = (key, ctx)
-    return ctx
+    if cached is None or cached[0] != key or cached[1].closed:
+        ctx = Context(**params)  # raises on bad parameters: nothing cached then
+        if cached is not None:
+            cached[1].close()
+        cached = _per_thread.context = (key, ctx)
+    cached[1].set(seed=_DEFAULT_SEED if seed is None else seed)
+    return cached[1]
 
 
 def _param_section() -> str:

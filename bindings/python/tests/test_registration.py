@@ -213,9 +213,15 @@ def test_ply_reader(tmp_path):
 
 
 def test_register_reuses_a_context_per_thread(monkeypatch):
-    """pkss.register() opens one context per thread and parameter set, and
-    a reused context gives bit-identical results; new parameters take
-    effect (a new context)."""
+    """pkss.register() opens one context per thread and parameter set (the
+    seed may change), a reused context gives bit-identical results to a
+    fresh one, and new parameters take effect (a new context)."""
+    src = shape(2000)
+    tgt = apply(random_similarity(np.random.default_rng(11), 1.5), shape(2000, seed=4))
+    params = dict(FAST, seed=3)
+    fresh3 = pkss.Context(**params).register(src, tgt).transform
+    fresh0 = pkss.Context(**FAST).register(src, tgt).transform
+    assert pkss.default_params()["seed"] == pkss._DEFAULT_SEED
     created = []
 
     def counting(real):
@@ -224,17 +230,15 @@ def test_register_reuses_a_context_per_thread(monkeypatch):
             return real(out)
         return create
 
-    src = shape(2000)
-    tgt = apply(random_similarity(np.random.default_rng(11), 1.5), shape(2000, seed=4))
     monkeypatch.setattr(pkss, "lib", LibSpy(_lib.lib, {"pkss_context_create": counting}))
     monkeypatch.setattr(pkss, "_per_thread", threading.local())
-    params = dict(FAST, seed=3)
     a = pkss.register(src, tgt, **params)
     b = pkss.register(src, tgt, **params)
+    d = pkss.register(src, tgt, **dict(params, seed=None))  # default seed, same context
     assert len(created) == 1
-    np.testing.assert_array_equal(a.transform, b.transform)
+    np.testing.assert_array_equal(a.transform, fresh3)
+    np.testing.assert_array_equal(b.transform, fresh3)
+    np.testing.assert_array_equal(d.transform, fresh0)
     c = pkss.register(src, tgt, **dict(params, refine=False))
     assert len(created) == 2
     assert not np.array_equal(a.transform, c.transform)  # unrefined pose
-    fresh = pkss.Context(**params).register(src, tgt)
-    np.testing.assert_array_equal(a.transform, fresh.transform)
