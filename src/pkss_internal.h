@@ -332,7 +332,7 @@ pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
 pkss_status pkss__icp_scale_search(const pkss__icp_view *src,
                                    const pkss__icp_view *tgt,
                                    pkss__icp_result *io);
-/* Overlap score and RMS of mutual pairs closer than 2h at pose. */
+/* Overlap score (coverage, icp.c) and RMS of the mutual pairs at pose. */
 pkss_status pkss__icp_overlap(const pkss__icp_view *src,
                               const pkss__icp_view *tgt,
                               const pkss__pose *pose, double *overlap,
