@@ -905,10 +905,10 @@ def register(
     return _thread_context(params).register(source, target)
 
 
-# register() keeps one Context per thread and reuses it while the parameters
-# (but the seed) stay the same: a fresh context opens the OpenCL device and loads the kernel
-# again on its first call, ~0.06 s of a 0.2 s registration (measured on the
-# bunny with PoCL). Results do not depend on it: every call starts from the
+# register() keeps one Context per thread and reuses it while all parameters
+# but the seed stay the same: a fresh context opens the OpenCL device and
+# loads the kernel again on its first call, ~0.06 s of a 0.2 s registration
+# (measured on the bunny with PoCL). Results do not depend on it: every call starts from the
 # parameters (the seed included), and a context keeps no other state.
 _per_thread = threading.local()
 _DEFAULT_SEED = 0  # the library's default (default_params()["seed"])
