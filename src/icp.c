@@ -312,6 +312,7 @@ pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
         *duplicate_of = -1;
     if (!sched->free_scale)
         basins = NULL;
+    out->abandoned = 0;
     icp_work w;
     if (!work_alloc(&w, src->m, tgt->m))
         return PKSS_ERR_OUT_OF_MEMORY;
@@ -389,11 +390,21 @@ pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
             if (it < sched->rigid_iters - 1)
                 it = sched->rigid_iters - 1; /* rigid converged: free the scale */
         }
-        if (basins && sched->free_scale && it + 1 == sched->rigid_iters &&
-            basins->n < PKSS_MAX_CANDIDATES) {
+        if (sched->free_scale && it + 1 == sched->rigid_iters) {
             /* the rigid stage ends here (converged or out of iterations) */
-            basins->rigid_end[basins->n] = T;
-            basins->owner[basins->n++] = id;
+            if (sched->rigid_min_overlap > 0.0) {
+                double ov, rms;
+                overlap_with(src, tgt, &T, &w, &ov, &rms, NULL);
+                if (ov < sched->rigid_min_overlap) {
+                    out->abandoned = 1;
+                    ++it;
+                    break;
+                }
+            }
+            if (basins && basins->n < PKSS_MAX_CANDIDATES) {
+                basins->rigid_end[basins->n] = T;
+                basins->owner[basins->n++] = id;
+            }
         }
     }
     out->pose = T;
@@ -450,7 +461,7 @@ pkss_status pkss__icp_scale_search(const pkss__icp_view *src,
                                    pkss__icp_result *io)
 {
     /* a short rigid settle after each trial scale: from 5h to the floor */
-    static const pkss__icp_schedule settle = {5.0, 10, 10, 0};
+    static const pkss__icp_schedule settle = {5.0, 10, 10, 0, 0.0};
     icp_work w;
     if (!work_alloc(&w, src->m, tgt->m))
         return PKSS_ERR_OUT_OF_MEMORY;

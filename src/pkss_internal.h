@@ -298,6 +298,7 @@ typedef struct pkss__icp_schedule {
     int rigid_iters;     /* iterations with the scale frozen */
     int max_iters;       /* all iterations */
     int free_scale;      /* 0: rigid only; else a pkss__scale_pairs */
+    double rigid_min_overlap; /* stop after the rigid stage below this */
 } pkss__icp_schedule;
 
 typedef struct pkss__icp_result {
@@ -306,6 +307,7 @@ typedef struct pkss__icp_result {
     double overlap;  /* overlap score on the views used (icp.c) */
     double cover[2]; /* its parts: shares of source, template covered */
     int iterations;
+    int abandoned;   /* stopped after the rigid stage (rigid_min_overlap) */
 } pkss__icp_result;
 
 /* Rigid-stage minima already reached by earlier runs (full schedule): a

@@ -278,10 +278,10 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
     /* The search is ~10-20 degrees accurate: at the coarse view's spacing
      * that displaces the rim by a few h, so a 12h gate suffices; it reaches
      * its 3h floor after 9 iterations. */
-    static const pkss__icp_schedule coarse = {12.0, 14, 14, 0};
+    static const pkss__icp_schedule coarse = {12.0, 14, 14, 0, 0.0};
     /* SPEC 6 allows 60 iterations in all; a partial source's scale converges
      * linearly from ~20 % off, so the full level may take up to 100. */
-    static const pkss__icp_schedule full = {6.0, 30, 100, PKSS__SCALE_MUTUAL};
+    static const pkss__icp_schedule full = {6.0, 30, 100, PKSS__SCALE_MUTUAL, 0.0};
     pkss__icp_result ir[PKSS_MAX_CANDIDATES];
     pkss_status cst[PKSS_MAX_CANDIDATES];
     int order[PKSS_MAX_CANDIDATES], list[PKSS_MAX_CANDIDATES];
@@ -330,20 +330,15 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
             for (size_t j = 0; j < i && j < n_full && !same_basin; ++j)
                 same_basin = same_pose(&ir[c].pose, &ir[order[j]].pose, tvc.spacing);
             refined[c] = i < n_full && !same_basin;
-            if (refined[c] && lead_overlap > 0.0) {
-                /* the coarse views' 2h tolerance is loose: re-rank against
-                 * the refined leader on all points before paying for a
-                 * full refinement */
-                double ov, rms;
-                st = pkss__icp_overlap(&sv, &tv, &ir[c].pose, &ov, &rms);
-                if (st != PKSS_OK)
-                    goto oom;
-                if (ov < PKSS_FULL_REFINE_RATIO * lead_overlap)
-                    refined[c] = 0;
-            }
             if (refined[c]) {
                 pkss__icp_result scaled = ir[c];
                 pkss__icp_schedule sched = full;
+                /* The coarse views' 2h tolerance is loose and the coarse
+                 * level may stop mid-way (a candidate 36 degrees off there
+                 * reached the truth): a candidate is judged against the
+                 * refined leader on all points once its full rigid stage
+                 * has converged, and only then pays for the scale stage. */
+                sched.rigid_min_overlap = PKSS_FULL_REFINE_RATIO * lead_overlap;
                 double fs = ir[c].cover[0], ft = ir[c].cover[1];
                 if (fs >= PKSS_PART_COVERED && fs - ft > PKSS_PART_OF_WHOLE)
                     sched.free_scale = PKSS__SCALE_SOURCE_PART;
@@ -359,9 +354,10 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
                 st = pkss__icp_run(&sv, &tv, &sched, &start, &basins, c, &dup, &ir[c]);
                 if (st != PKSS_OK)
                     goto oom;
-                if (dup >= 0) {
-                    /* reached a refined candidate's rigid minimum: that
-                     * one stands for the basin (reported at this pose) */
+                if (dup >= 0 || ir[c].abandoned) {
+                    /* reached a refined candidate's rigid minimum (that
+                     * one stands for the basin), or fell behind the leader:
+                     * reported at this pose, not in the selection */
                     refined[c] = 0;
                     list[n_rest++] = c;
                 } else if (ir[c].overlap > lead_overlap) {
