@@ -230,6 +230,38 @@ static int work_alloc(icp_work *w, size_t ns, size_t nt)
     return 1;
 }
 
+/* Appends the gated source -> template pairs to w->pi / w->pj from n on;
+ * returns the new count. */
+static size_t add_forward_pairs(icp_work *w, size_t ns, size_t n)
+{
+    for (size_t i = 0; i < ns; ++i)
+        if (w->fwd[i] != UINT32_MAX) {
+            w->pi[n] = (uint32_t)i;
+            w->pj[n++] = w->fwd[i];
+        }
+    return n;
+}
+
+/* The same for the gated template -> source pairs. */
+static size_t add_backward_pairs(icp_work *w, size_t nt, size_t n)
+{
+    for (size_t j = 0; j < nt; ++j)
+        if (w->bwd[j] != UINT32_MAX) {
+            w->pi[n] = w->bwd[j];
+            w->pj[n++] = (uint32_t)j;
+        }
+    return n;
+}
+
+/* Distance within which a point counts as covered by the other cloud: 2 x
+ * the coarser of the two spacings, in template units. */
+static double coverage_gate(const pkss__icp_view *src,
+                            const pkss__icp_view *tgt, const pkss__pose *T)
+{
+    double h = tgt->spacing, hs = T->s * src->spacing;
+    return ICP_OVERLAP_DIST * (h > hs ? h : hs);
+}
+
 /* Coverage overlap: f_s = share of source points with a template point
  * within d, f_t = share of template points with a source point within d,
  * overlap = sqrt(f_s f_t), d = 2 x the coarser of the two spacings (in
@@ -246,9 +278,7 @@ static void overlap_with(const pkss__icp_view *src, const pkss__icp_view *tgt,
                          const pkss__pose *T, icp_work *w, double *overlap,
                          double *rms, double *cover)
 {
-    double h = tgt->spacing, hs = T->s * src->spacing;
-    double gate = ICP_OVERLAP_DIST * (h > hs ? h : hs);
-    correspond(src, tgt, T, gate, w->fwd, w->fwd_d2, w->bwd);
+    correspond(src, tgt, T, coverage_gate(src, tgt, T), w->fwd, w->fwd_d2, w->bwd);
     size_t mutual = 0, fwd_hits = 0, bwd_hits = 0;
     double ss = 0.0;
     for (size_t i = 0; i < src->m; ++i) {
@@ -306,12 +336,11 @@ static int known_basin(const pkss__icp_basins *b, const pkss__pose *T, double h)
 pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
                           const pkss__icp_schedule *sched,
                           const pkss__pose *init, pkss__icp_basins *basins,
-                          int id, int *duplicate_of, pkss__icp_result *out)
+                          int id, pkss__icp_result *out)
 {
-    if (duplicate_of)
-        *duplicate_of = -1;
     if (!sched->free_scale)
         basins = NULL;
+    out->duplicate_of = -1;
     out->abandoned = 0;
     icp_work w;
     if (!work_alloc(&w, src->m, tgt->m))
@@ -328,28 +357,12 @@ pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
         size_t n = 0;
         if (!scale_stage) {
             /* pairs from both directions, each within the gate */
-            for (size_t i = 0; i < src->m; ++i)
-                if (w.fwd[i] != UINT32_MAX) {
-                    w.pi[n] = (uint32_t)i;
-                    w.pj[n++] = w.fwd[i];
-                }
-            for (size_t j = 0; j < tgt->m; ++j)
-                if (w.bwd[j] != UINT32_MAX) {
-                    w.pi[n] = w.bwd[j];
-                    w.pj[n++] = (uint32_t)j;
-                }
+            n = add_forward_pairs(&w, src->m, n);
+            n = add_backward_pairs(&w, tgt->m, n);
         } else if (sched->free_scale == PKSS__SCALE_SOURCE_PART) {
-            for (size_t i = 0; i < src->m; ++i)
-                if (w.fwd[i] != UINT32_MAX) {
-                    w.pi[n] = (uint32_t)i;
-                    w.pj[n++] = w.fwd[i];
-                }
+            n = add_forward_pairs(&w, src->m, n);
         } else if (sched->free_scale == PKSS__SCALE_TEMPLATE_PART) {
-            for (size_t j = 0; j < tgt->m; ++j)
-                if (w.bwd[j] != UINT32_MAX) {
-                    w.pi[n] = w.bwd[j];
-                    w.pj[n++] = (uint32_t)j;
-                }
+            n = add_backward_pairs(&w, tgt->m, n);
         } else {
             for (size_t i = 0; i < src->m; ++i) {
                 uint32_t j = w.fwd[i];
@@ -374,10 +387,8 @@ pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
         if (gate < ICP_GATE_FLOOR * h)
             gate = ICP_GATE_FLOOR * h;
         if (basins && !scale_stage && at_floor) {
-            int dup = known_basin(basins, &T, h);
-            if (dup >= 0) {
-                if (duplicate_of)
-                    *duplicate_of = dup;
+            out->duplicate_of = known_basin(basins, &T, h);
+            if (out->duplicate_of >= 0) {
                 ++it;
                 break;
             }
@@ -393,10 +404,9 @@ pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
         if (sched->free_scale && it + 1 == sched->rigid_iters) {
             /* the rigid stage ends here (converged or out of iterations) */
             if (sched->rigid_min_overlap > 0.0) {
-                double ov, rms;
-                overlap_with(src, tgt, &T, &w, &ov, &rms, NULL);
-                if (ov < sched->rigid_min_overlap) {
-                    out->abandoned = 1;
+                overlap_with(src, tgt, &T, &w, &out->overlap, &out->rms, out->cover);
+                if (out->overlap < sched->rigid_min_overlap) {
+                    out->abandoned = 1; /* scored at this pose already */
                     ++it;
                     break;
                 }
@@ -409,7 +419,8 @@ pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
     }
     out->pose = T;
     out->iterations = it;
-    overlap_with(src, tgt, &T, &w, &out->overlap, &out->rms, out->cover);
+    if (!out->abandoned)
+        overlap_with(src, tgt, &T, &w, &out->overlap, &out->rms, out->cover);
     work_free(&w);
     return PKSS_OK;
 }
@@ -432,9 +443,7 @@ static void covered_centroid(const pkss__icp_view *src,
                              const pkss__icp_view *tgt, const pkss__pose *T,
                              icp_work *w, double *c)
 {
-    double h = tgt->spacing, hs = T->s * src->spacing;
-    double gate = ICP_OVERLAP_DIST * (h > hs ? h : hs);
-    correspond(src, tgt, T, gate, w->fwd, w->fwd_d2, w->bwd);
+    correspond(src, tgt, T, coverage_gate(src, tgt, T), w->fwd, w->fwd_d2, w->bwd);
     size_t n = 0;
     c[0] = c[1] = c[2] = 0.0;
     for (size_t i = 0; i < src->m; ++i)
@@ -474,15 +483,15 @@ pkss_status pkss__icp_scale_search(const pkss__icp_view *src,
         for (int move = 0; move < SCALE_MOVES; ++move) {
             pkss__icp_result next = best;
             int next_dir = 0;
+            double c[3];
+            covered_centroid(src, tgt, &best.pose, &w, c);
             for (int sgn = -1; sgn <= 1; sgn += 2) {
                 if (dir != 0 && sgn != dir)
                     continue;
-                double c[3];
-                covered_centroid(src, tgt, &best.pose, &w, c);
                 pkss__pose trial = best.pose;
                 rescale_about(&trial, c, sgn > 0 ? f : 1.0 / f);
                 pkss__icp_result r;
-                st = pkss__icp_run(src, tgt, &settle, &trial, NULL, 0, NULL, &r);
+                st = pkss__icp_run(src, tgt, &settle, &trial, NULL, 0, &r);
                 if (st != PKSS_OK)
                     goto out;
                 if (r.overlap > next.overlap) {

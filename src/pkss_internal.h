@@ -308,6 +308,7 @@ typedef struct pkss__icp_result {
     double cover[2]; /* its parts: shares of source, template covered */
     int iterations;
     int abandoned;   /* stopped after the rigid stage (rigid_min_overlap) */
+    int duplicate_of; /* owner of the known rigid minimum it stopped at, or -1 */
 } pkss__icp_result;
 
 /* Rigid-stage minima already reached by earlier runs (full schedule): a
@@ -321,13 +322,13 @@ typedef struct pkss__icp_basins {
 
 /* SPEC 6: overlap-aware similarity ICP of the source view onto the template
  * view from init (pre-shape coordinates of both). With basins (may be
- * NULL) and a free scale: stops early with *duplicate_of = the owner of a
- * known rigid minimum the run reached, else sets it to -1 and records the
- * run's own rigid minimum under id. */
+ * NULL) and a free scale: stops early with out->duplicate_of = the owner of
+ * a known rigid minimum the run reached, else records the run's own rigid
+ * minimum under id. */
 pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
                           const pkss__icp_schedule *sched,
                           const pkss__pose *init, pkss__icp_basins *basins,
-                          int id, int *duplicate_of, pkss__icp_result *out);
+                          int id, pkss__icp_result *out);
 /* The scale that maximises the overlap score, by a pattern search in log
  * scale with a short rigid settle at each trial; io holds the start pose
  * on entry and the best pose found (with its overlap and RMS) on exit. */

@@ -185,7 +185,7 @@ static void cand_one(const cand_work *w, int c)
     for (int d = 0; d < 3; ++d)
         init.t[d] = offset[d];
     if (w->refine) {
-        w->st[c] = pkss__icp_run(w->svc, w->tvc, w->coarse, &init, NULL, 0, NULL, r);
+        w->st[c] = pkss__icp_run(w->svc, w->tvc, w->coarse, &init, NULL, 0, r);
     } else {
         r->pose = init;
         r->iterations = 0;
@@ -344,22 +344,21 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
                     sched.free_scale = PKSS__SCALE_SOURCE_PART;
                 else if (ft >= PKSS_PART_COVERED && ft - fs > PKSS_PART_OF_WHOLE)
                     sched.free_scale = PKSS__SCALE_TEMPLATE_PART;
-                if (fabs(ir[c].cover[0] - ir[c].cover[1]) > PKSS_PART_OF_WHOLE) {
+                if (fabs(fs - ft) > PKSS_PART_OF_WHOLE) {
                     st = pkss__icp_scale_search(&svc, &tvc, &scaled);
                     if (st != PKSS_OK)
                         goto oom;
                 }
                 pkss__pose start = scaled.pose;
-                int dup;
-                st = pkss__icp_run(&sv, &tv, &sched, &start, &basins, c, &dup, &ir[c]);
+                st = pkss__icp_run(&sv, &tv, &sched, &start, &basins, c, &ir[c]);
                 if (st != PKSS_OK)
                     goto oom;
-                if (dup >= 0 || ir[c].abandoned) {
+                if (ir[c].duplicate_of >= 0 || ir[c].abandoned) {
                     /* reached a refined candidate's rigid minimum (that
                      * one stands for the basin), or fell behind the leader:
-                     * reported at this pose, not in the selection */
+                     * reported at this pose (already scored on all points),
+                     * not in the selection */
                     refined[c] = 0;
-                    list[n_rest++] = c;
                 } else if (ir[c].overlap > lead_overlap) {
                     lead_overlap = ir[c].overlap;
                 }

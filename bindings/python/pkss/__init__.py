@@ -908,10 +908,11 @@ def register(
 # register() keeps one Context per thread and reuses it while all parameters
 # but the seed stay the same: a fresh context opens the OpenCL device and
 # loads the kernel again on its first call, ~0.06 s of a 0.2 s registration
-# (measured on the bunny with PoCL). Results do not depend on it: every call starts from the
-# parameters (the seed included), and a context keeps no other state.
+# (measured on the bunny with PoCL). Results do not depend on it: every call
+# starts from the parameters (the seed included), and a context keeps no
+# other state.
 _per_thread = threading.local()
-_DEFAULT_SEED = 0  # the library's default (default_params()["seed"])
+_DEFAULT_SEED = default_params()["seed"]
 
 
 def _thread_context(params: Dict[str, Any]) -> "Context":
