@@ -11,7 +11,8 @@
  *     20 % wrong initial scale of a partial source cannot recover; measured
  *     on objects with 30-50 % cut away, strict success 16/32 -> 25/32, and
  *     on real partial scan pairs 19/26 -> 21/26);
- *   - stop when the gate is at its floor and the pose no longer moves.
+ *   - stop when the pose no longer moves and the gate is at its floor, or
+ *     every pair lies inside the floor already (the floor would keep them).
  * The overlap score (coverage, see overlap_with) picks the winner among the
  * refined candidates. Where one cloud shows only a part of the other's
  * surface, register.c first searches the scale that maximises it
@@ -37,6 +38,9 @@
 #define ICP_MIN_PAIRS 10
 #define ICP_OVERLAP_DIST 2.0
 #define ICP_SAME_BASIN_RAD (1.0 * 3.14159265358979323846 / 180.0)
+/* Iterations at the floor over which a rigid stage's overlap gain is
+ * measured, to project where it can end (pkss__icp_run). */
+#define ICP_GAIN_WINDOW 5
 
 void pkss__icp_view_full(const pkss_cloud *c, pkss__icp_view *v)
 {
@@ -96,6 +100,7 @@ typedef struct bwd_job {
     const pkss__pose *T;
     double g2s;
     uint32_t *bwd;
+    double *bwd_d2;
 } bwd_job;
 
 static void *backward(void *arg)
@@ -105,7 +110,7 @@ static void *backward(void *arg)
         double x[3];
         inverse_point(j->T, j->tgt->pts + 3 * k, x);
         double b = warm_bound(x, j->src->pts, j->bwd[k], j->g2s);
-        j->bwd[k] = pkss__kdtree_nearest(j->src->tree, x, b, NULL);
+        j->bwd[k] = pkss__kdtree_nearest(j->src->tree, x, b, &j->bwd_d2[k]);
     }
     return NULL;
 }
@@ -115,15 +120,16 @@ static void *backward(void *arg)
 
 /* Nearest template point of every source point (fwd) and nearest source
  * point of every template point (bwd), both within gate (template units);
- * UINT32_MAX where none. fwd/bwd hold the previous call's answers on entry
+ * UINT32_MAX where none; fwd_d2 / bwd_d2 the squared distances (bwd_d2 in
+ * source units, where the backward search runs). fwd/bwd hold the previous call's answers on entry
  * (or UINT32_MAX) and serve as warm starts. The two directions are
  * independent: large views run the backward one on a second thread. */
 static void correspond(const pkss__icp_view *src, const pkss__icp_view *tgt,
                        const pkss__pose *T, double gate, uint32_t *fwd,
-                       double *fwd_d2, uint32_t *bwd)
+                       double *fwd_d2, uint32_t *bwd, double *bwd_d2)
 {
     double g2 = gate * gate;
-    bwd_job job = {src, tgt, T, g2 / (T->s * T->s), bwd};
+    bwd_job job = {src, tgt, T, g2 / (T->s * T->s), bwd, bwd_d2};
     pthread_t th;
     int threaded = src->m + tgt->m >= 2 * ICP_THREAD_MIN &&
                    pthread_create(&th, NULL, backward, &job) == 0;
@@ -201,7 +207,7 @@ static double pose_change(const pkss__pose *a, const pkss__pose *b)
 
 typedef struct icp_work {
     uint32_t *fwd, *bwd, *pi, *pj;
-    double *fwd_d2;
+    double *fwd_d2, *bwd_d2;
 } icp_work;
 
 static void work_free(icp_work *w)
@@ -211,6 +217,7 @@ static void work_free(icp_work *w)
     pkss__free(w->pi);
     pkss__free(w->pj);
     pkss__free(w->fwd_d2);
+    pkss__free(w->bwd_d2);
 }
 
 static int work_alloc(icp_work *w, size_t ns, size_t nt)
@@ -219,9 +226,10 @@ static int work_alloc(icp_work *w, size_t ns, size_t nt)
     w->fwd = pkss__malloc(ns * sizeof(uint32_t));
     w->fwd_d2 = pkss__malloc(ns * sizeof(double));
     w->bwd = pkss__malloc(nt * sizeof(uint32_t));
+    w->bwd_d2 = pkss__malloc(nt * sizeof(double));
     w->pi = pkss__malloc((ns + nt) * sizeof(uint32_t));
     w->pj = pkss__malloc((ns + nt) * sizeof(uint32_t));
-    if (!w->fwd || !w->fwd_d2 || !w->bwd || !w->pi || !w->pj) {
+    if (!w->fwd || !w->fwd_d2 || !w->bwd || !w->bwd_d2 || !w->pi || !w->pj) {
         work_free(w);
         return 0;
     }
@@ -231,25 +239,49 @@ static int work_alloc(icp_work *w, size_t ns, size_t nt)
 }
 
 /* Appends the gated source -> template pairs to w->pi / w->pj from n on;
- * returns the new count. */
-static size_t add_forward_pairs(icp_work *w, size_t ns, size_t n)
+ * returns the new count and raises *d2max to the farthest pair's squared
+ * distance (template units). */
+static size_t add_forward_pairs(icp_work *w, size_t ns, size_t n,
+                                double *d2max)
 {
     for (size_t i = 0; i < ns; ++i)
         if (w->fwd[i] != UINT32_MAX) {
             w->pi[n] = (uint32_t)i;
             w->pj[n++] = w->fwd[i];
+            if (w->fwd_d2[i] > *d2max)
+                *d2max = w->fwd_d2[i];
         }
     return n;
 }
 
-/* The same for the gated template -> source pairs. */
-static size_t add_backward_pairs(icp_work *w, size_t nt, size_t n)
+/* The same for the gated template -> source pairs (s = the pose's scale:
+ * the backward distances are in source units). */
+static size_t add_backward_pairs(icp_work *w, size_t nt, size_t n, double s,
+                                 double *d2max)
 {
     for (size_t j = 0; j < nt; ++j)
         if (w->bwd[j] != UINT32_MAX) {
             w->pi[n] = w->bwd[j];
             w->pj[n++] = (uint32_t)j;
+            if (s * s * w->bwd_d2[j] > *d2max)
+                *d2max = s * s * w->bwd_d2[j];
         }
+    return n;
+}
+
+/* The same for the mutual pairs. */
+static size_t add_mutual_pairs(icp_work *w, size_t ns, double *d2max)
+{
+    size_t n = 0;
+    for (size_t i = 0; i < ns; ++i) {
+        uint32_t j = w->fwd[i];
+        if (j != UINT32_MAX && w->bwd[j] == i) {
+            w->pi[n] = (uint32_t)i;
+            w->pj[n++] = j;
+            if (w->fwd_d2[i] > *d2max)
+                *d2max = w->fwd_d2[i];
+        }
+    }
     return n;
 }
 
@@ -278,7 +310,7 @@ static void overlap_with(const pkss__icp_view *src, const pkss__icp_view *tgt,
                          const pkss__pose *T, icp_work *w, double *overlap,
                          double *rms, double *cover)
 {
-    correspond(src, tgt, T, coverage_gate(src, tgt, T), w->fwd, w->fwd_d2, w->bwd);
+    correspond(src, tgt, T, coverage_gate(src, tgt, T), w->fwd, w->fwd_d2, w->bwd, w->bwd_d2);
     size_t mutual = 0, fwd_hits = 0, bwd_hits = 0;
     double ss = 0.0;
     for (size_t i = 0; i < src->m; ++i) {
@@ -301,6 +333,28 @@ static void overlap_with(const pkss__icp_view *src, const pkss__icp_view *tgt,
         cover[1] = ft;
     }
     *rms = mutual ? sqrt(ss / (double)mutual) : 0.0;
+}
+
+/* The overlap score at the pose the last correspond() ran at, from its
+ * answers: the nearest partner within the gate is the nearest within the
+ * coverage distance whenever it lies inside that. Returns -1 if the gate
+ * was narrower than the coverage distance (the answers cannot tell). */
+static double overlap_from_pairs(const pkss__icp_view *src,
+                                 const pkss__icp_view *tgt,
+                                 const pkss__pose *T, double gate,
+                                 const icp_work *w)
+{
+    double cg = coverage_gate(src, tgt, T);
+    if (gate < cg || src->m == 0 || tgt->m == 0)
+        return -1.0;
+    double cg2 = cg * cg, cg2s = cg2 / (T->s * T->s);
+    size_t fwd_hits = 0, bwd_hits = 0;
+    for (size_t i = 0; i < src->m; ++i)
+        fwd_hits += w->fwd[i] != UINT32_MAX && w->fwd_d2[i] <= cg2;
+    for (size_t j = 0; j < tgt->m; ++j)
+        bwd_hits += w->bwd[j] != UINT32_MAX && w->bwd_d2[j] <= cg2s;
+    return sqrt((double)fwd_hits / (double)src->m *
+                (double)bwd_hits / (double)tgt->m);
 }
 
 pkss_status pkss__icp_overlap(const pkss__icp_view *src,
@@ -348,44 +402,80 @@ pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
     const double h = tgt->spacing;
     pkss__pose T = *init;
     double gate = sched->gate_start * h;
+    /* the rigid stage's overlap at the last ICP_GAIN_WINDOW + 1 floor
+     * iterations (ring), when a bar is set (rigid_min_overlap) */
+    double ov_ring[ICP_GAIN_WINDOW + 1];
+    int n_ring = 0;
     int it;
     for (it = 0; it < sched->max_iters; ++it) {
         int scale_stage = sched->free_scale && it >= sched->rigid_iters;
         if (sched->free_scale && it == sched->rigid_iters && gate < ICP_GATE_SCALE_START * h)
             gate = ICP_GATE_SCALE_START * h; /* reopen for the free scale */
-        correspond(src, tgt, &T, gate, w.fwd, w.fwd_d2, w.bwd);
+        correspond(src, tgt, &T, gate, w.fwd, w.fwd_d2, w.bwd, w.bwd_d2);
         size_t n = 0;
+        double d2max = 0.0;
         if (!scale_stage) {
             /* pairs from both directions, each within the gate */
-            n = add_forward_pairs(&w, src->m, n);
-            n = add_backward_pairs(&w, tgt->m, n);
+            n = add_forward_pairs(&w, src->m, n, &d2max);
+            n = add_backward_pairs(&w, tgt->m, n, T.s, &d2max);
         } else if (sched->free_scale == PKSS__SCALE_SOURCE_PART) {
-            n = add_forward_pairs(&w, src->m, n);
+            n = add_forward_pairs(&w, src->m, n, &d2max);
         } else if (sched->free_scale == PKSS__SCALE_TEMPLATE_PART) {
-            n = add_backward_pairs(&w, tgt->m, n);
+            n = add_backward_pairs(&w, tgt->m, n, T.s, &d2max);
         } else {
-            for (size_t i = 0; i < src->m; ++i) {
-                uint32_t j = w.fwd[i];
-                if (j != UINT32_MAX && w.bwd[j] == i) {
-                    w.pi[n] = (uint32_t)i;
-                    w.pj[n++] = j;
-                }
-            }
+            n = add_mutual_pairs(&w, src->m, &d2max);
         }
         pkss__pose prev = T;
         if (!solve(src, tgt, w.pi, w.pj, n, scale_stage, &T))
             break; /* too few pairs: keep the pose */
-        int at_floor = gate <= ICP_GATE_FLOOR * h * 1.000001;
         double change = pose_change(&prev, &T);
+        /* At the floor, or with every pair already inside it: a gate at the
+         * floor would pick the same pairs (the nearest partner within any
+         * gate past its distance is the same), so the pose has converged
+         * as far as the floor allows once it stops moving. This saves the
+         * 5-6 iterations the decaying gate would take to reach the floor
+         * while nothing changes. */
+        const double floor_gate = ICP_GATE_FLOOR * h * 1.000001;
+        int at_floor = gate <= floor_gate || d2max <= floor_gate * floor_gate;
         /* While the free scale is still moving, hold the reopened gate: a
          * scale error e displaces rim points by ~e * radius, many spacings,
          * and a tightening gate would keep only the pairs near the centre,
          * which barely constrain the scale. */
         int scale_moving = scale_stage && fabs(T.s - prev.s) > ICP_SCALE_SETTLED * T.s;
+        const double gate_used = gate;
         if (!scale_moving)
             gate *= ICP_GATE_DECAY;
         if (gate < ICP_GATE_FLOOR * h)
             gate = ICP_GATE_FLOOR * h;
+        if (sched->rigid_min_overlap > 0.0 && !scale_stage &&
+            gate_used <= floor_gate) {
+            /* A run heading for the bar gains overlap steadily; one caught
+             * in a wrong minimum creeps (dragon, wrong candidates: 0.40 ->
+             * 0.41 over 25 iterations against a bar of 0.6). Projecting the
+             * gain of the last ICP_GAIN_WINDOW iterations linearly over the
+             * rigid iterations left over-estimates a decelerating run, so
+             * a run that cannot reach the bar even so is stopped now
+             * instead of at the end of the rigid stage. */
+            double ov = overlap_from_pairs(src, tgt, &prev, gate_used, &w);
+            if (ov < 0.0) {
+                n_ring = 0;
+            } else {
+                ov_ring[n_ring % (ICP_GAIN_WINDOW + 1)] = ov;
+                ++n_ring;
+            }
+            if (n_ring > ICP_GAIN_WINDOW) {
+                double old = ov_ring[(n_ring - 1 - ICP_GAIN_WINDOW) % (ICP_GAIN_WINDOW + 1)];
+                double gain = (ov - old) / ICP_GAIN_WINDOW;
+                double reach = ov + (gain > 0.0 ? gain : 0.0) *
+                                        (double)(sched->rigid_iters - it);
+                if (reach < sched->rigid_min_overlap) {
+                    overlap_with(src, tgt, &T, &w, &out->overlap, &out->rms, out->cover);
+                    out->abandoned = 1;
+                    ++it;
+                    break;
+                }
+            }
+        }
         if (basins && !scale_stage && at_floor) {
             out->duplicate_of = known_basin(basins, &T, h);
             if (out->duplicate_of >= 0) {
@@ -443,7 +533,7 @@ static void covered_centroid(const pkss__icp_view *src,
                              const pkss__icp_view *tgt, const pkss__pose *T,
                              icp_work *w, double *c)
 {
-    correspond(src, tgt, T, coverage_gate(src, tgt, T), w->fwd, w->fwd_d2, w->bwd);
+    correspond(src, tgt, T, coverage_gate(src, tgt, T), w->fwd, w->fwd_d2, w->bwd, w->bwd_d2);
     size_t n = 0;
     c[0] = c[1] = c[2] = 0.0;
     for (size_t i = 0; i < src->m; ++i)

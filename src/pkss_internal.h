@@ -298,7 +298,8 @@ typedef struct pkss__icp_schedule {
     int rigid_iters;     /* iterations with the scale frozen */
     int max_iters;       /* all iterations */
     int free_scale;      /* 0: rigid only; else a pkss__scale_pairs */
-    double rigid_min_overlap; /* stop after the rigid stage below this */
+    double rigid_min_overlap; /* stop a rigid stage that ends, or is
+                                 projected to end, below this overlap */
 } pkss__icp_schedule;
 
 typedef struct pkss__icp_result {
@@ -307,7 +308,8 @@ typedef struct pkss__icp_result {
     double overlap;  /* overlap score on the views used (icp.c) */
     double cover[2]; /* its parts: shares of source, template covered */
     int iterations;
-    int abandoned;   /* stopped after the rigid stage (rigid_min_overlap) */
+    int abandoned;   /* stopped in or after the rigid stage
+                        (rigid_min_overlap) */
     int duplicate_of; /* owner of the known rigid minimum it stopped at, or -1 */
 } pkss__icp_result;
 
