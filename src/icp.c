@@ -372,19 +372,30 @@ pkss_status pkss__icp_overlap(const pkss__icp_view *src,
     return PKSS_OK;
 }
 
-/* Same rigid minimum: within 1 degree, 1 template spacing and 1 % scale
- * (ICP steps near a minimum are far smaller; distinct minima of the shapes
- * we measured lie >= 15 degrees apart). */
-static int known_basin(const pkss__icp_basins *b, const pkss__pose *T, double h)
+/* Another run's minimum (not run id's own): within 1 degree, 1 template
+ * spacing and 1 % scale (ICP steps near a minimum are far smaller;
+ * distinct minima of the shapes we measured lie >= 15 degrees apart). */
+static int known_basin(const pkss__icp_basins *b, const pkss__pose *T,
+                       double h, int id)
 {
     for (int k = 0; k < b->n; ++k) {
-        const pkss__pose *q = &b->rigid_end[k];
+        if (b->owner[k] == id)
+            continue;
+        const pkss__pose *q = &b->pose[k];
         double dt2 = dist2(T->t, q->t);
         if (pkss__rotation_angle(T->R, q->R) < ICP_SAME_BASIN_RAD &&
             dt2 < h * h && fabs(T->s / q->s - 1.0) < 0.01)
             return b->owner[k];
     }
     return -1;
+}
+
+static void add_basin(pkss__icp_basins *b, const pkss__pose *T, int id)
+{
+    if (!b || b->n >= (int)(sizeof b->owner / sizeof *b->owner))
+        return;
+    b->pose[b->n] = *T;
+    b->owner[b->n++] = id;
 }
 
 pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
@@ -402,10 +413,11 @@ pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
     const double h = tgt->spacing;
     pkss__pose T = *init;
     double gate = sched->gate_start * h;
-    /* the rigid stage's overlap at the last ICP_GAIN_WINDOW + 1 floor
-     * iterations (ring), when a bar is set (rigid_min_overlap) */
+    /* the current stage's overlap at its last ICP_GAIN_WINDOW + 1
+     * iterations (ring; the rigid stage's from the floor on), when a bar
+     * is set (rigid_min_overlap, scale_min_overlap) */
     double ov_ring[ICP_GAIN_WINDOW + 1];
-    int n_ring = 0;
+    int n_ring = 0, ring_stage = 0;
     int it;
     for (it = 0; it < sched->max_iters; ++it) {
         int scale_stage = sched->free_scale && it >= sched->rigid_iters;
@@ -447,15 +459,21 @@ pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
             gate *= ICP_GATE_DECAY;
         if (gate < ICP_GATE_FLOOR * h)
             gate = ICP_GATE_FLOOR * h;
-        if (sched->rigid_min_overlap > 0.0 && !scale_stage &&
-            gate_used <= floor_gate) {
+        /* the bar this stage must reach, and the iteration it ends at */
+        double bar = scale_stage ? sched->scale_min_overlap : sched->rigid_min_overlap;
+        int stage_end = scale_stage ? sched->max_iters : sched->rigid_iters;
+        if (scale_stage != ring_stage) {
+            n_ring = 0;
+            ring_stage = scale_stage;
+        }
+        if (bar > 0.0 && (scale_stage || gate_used <= floor_gate)) {
             /* A run heading for the bar gains overlap steadily; one caught
              * in a wrong minimum creeps (dragon, wrong candidates: 0.40 ->
              * 0.41 over 25 iterations against a bar of 0.6). Projecting the
              * gain of the last ICP_GAIN_WINDOW iterations linearly over the
-             * rigid iterations left over-estimates a decelerating run, so
-             * a run that cannot reach the bar even so is stopped now
-             * instead of at the end of the rigid stage. */
+             * stage's iterations left over-estimates a decelerating run,
+             * so a run that cannot reach the bar even so is stopped now
+             * instead of at the end of the stage. */
             double ov = overlap_from_pairs(src, tgt, &prev, gate_used, &w);
             if (ov < 0.0) {
                 n_ring = 0;
@@ -467,8 +485,8 @@ pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
                 double old = ov_ring[(n_ring - 1 - ICP_GAIN_WINDOW) % (ICP_GAIN_WINDOW + 1)];
                 double gain = (ov - old) / ICP_GAIN_WINDOW;
                 double reach = ov + (gain > 0.0 ? gain : 0.0) *
-                                        (double)(sched->rigid_iters - it);
-                if (reach < sched->rigid_min_overlap) {
+                                        (double)(stage_end - it);
+                if (reach < bar) {
                     overlap_with(src, tgt, &T, &w, &out->overlap, &out->rms, out->cover);
                     out->abandoned = 1;
                     ++it;
@@ -476,8 +494,8 @@ pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
                 }
             }
         }
-        if (basins && !scale_stage && at_floor) {
-            out->duplicate_of = known_basin(basins, &T, h);
+        if (basins && at_floor) {
+            out->duplicate_of = known_basin(basins, &T, h, id);
             if (out->duplicate_of >= 0) {
                 ++it;
                 break;
@@ -501,12 +519,11 @@ pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
                     break;
                 }
             }
-            if (basins && basins->n < PKSS_MAX_CANDIDATES) {
-                basins->rigid_end[basins->n] = T;
-                basins->owner[basins->n++] = id;
-            }
+            add_basin(basins, &T, id);
         }
     }
+    if (!out->abandoned && out->duplicate_of < 0)
+        add_basin(basins, &T, id);
     out->pose = T;
     out->iterations = it;
     if (!out->abandoned)
@@ -560,7 +577,7 @@ pkss_status pkss__icp_scale_search(const pkss__icp_view *src,
                                    pkss__icp_result *io)
 {
     /* a short rigid settle after each trial scale: from 5h to the floor */
-    static const pkss__icp_schedule settle = {5.0, 10, 10, 0, 0.0};
+    static const pkss__icp_schedule settle = {5.0, 10, 10, 0, 0.0, 0.0};
     icp_work w;
     if (!work_alloc(&w, src->m, tgt->m))
         return PKSS_ERR_OUT_OF_MEMORY;

@@ -300,6 +300,8 @@ typedef struct pkss__icp_schedule {
     int free_scale;      /* 0: rigid only; else a pkss__scale_pairs */
     double rigid_min_overlap; /* stop a rigid stage that ends, or is
                                  projected to end, below this overlap */
+    double scale_min_overlap; /* stop a scale stage projected to end
+                                 below this overlap */
 } pkss__icp_schedule;
 
 typedef struct pkss__icp_result {
@@ -308,25 +310,26 @@ typedef struct pkss__icp_result {
     double overlap;  /* overlap score on the views used (icp.c) */
     double cover[2]; /* its parts: shares of source, template covered */
     int iterations;
-    int abandoned;   /* stopped in or after the rigid stage
-                        (rigid_min_overlap) */
+    int abandoned;   /* stopped short of a bar (rigid_min_overlap,
+                        scale_min_overlap) */
     int duplicate_of; /* owner of the known rigid minimum it stopped at, or -1 */
 } pkss__icp_result;
 
-/* Rigid-stage minima already reached by earlier runs (full schedule): a
- * run whose rigid stage arrives at one of them stops there, since from the
- * same rigid minimum the scale stage would end at the same pose. */
+/* Minima already reached by earlier runs (full schedule): the end of each
+ * run's rigid stage and its final pose. A run that arrives at one of them
+ * stops there, since from the same minimum it would end where that run
+ * ended. */
 typedef struct pkss__icp_basins {
-    pkss__pose rigid_end[PKSS_MAX_CANDIDATES];
-    int owner[PKSS_MAX_CANDIDATES];  /* caller's id of the run that found it */
+    pkss__pose pose[2 * PKSS_MAX_CANDIDATES];
+    int owner[2 * PKSS_MAX_CANDIDATES]; /* caller's id of the run that found it */
     int n;
 } pkss__icp_basins;
 
 /* SPEC 6: overlap-aware similarity ICP of the source view onto the template
  * view from init (pre-shape coordinates of both). With basins (may be
  * NULL) and a free scale: stops early with out->duplicate_of = the owner of
- * a known rigid minimum the run reached, else records the run's own rigid
- * minimum under id. */
+ * a known minimum the run reached, else records the run's own rigid
+ * minimum and final pose under id. */
 pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
                           const pkss__icp_schedule *sched,
                           const pkss__pose *init, pkss__icp_basins *basins,

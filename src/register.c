@@ -278,10 +278,10 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
     /* The search is ~10-20 degrees accurate: at the coarse view's spacing
      * that displaces the rim by a few h, so a 12h gate suffices; it reaches
      * its 3h floor after 9 iterations. */
-    static const pkss__icp_schedule coarse = {12.0, 14, 14, 0, 0.0};
+    static const pkss__icp_schedule coarse = {12.0, 14, 14, 0, 0.0, 0.0};
     /* SPEC 6 allows 60 iterations in all; a partial source's scale converges
      * linearly from ~20 % off, so the full level may take up to 100. */
-    static const pkss__icp_schedule full = {6.0, 30, 100, PKSS__SCALE_MUTUAL, 0.0};
+    static const pkss__icp_schedule full = {6.0, 30, 100, PKSS__SCALE_MUTUAL, 0.0, 0.0};
     pkss__icp_result ir[PKSS_MAX_CANDIDATES];
     pkss_status cst[PKSS_MAX_CANDIDATES];
     int order[PKSS_MAX_CANDIDATES], list[PKSS_MAX_CANDIDATES];
@@ -336,9 +336,13 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
                 /* The coarse views' 2h tolerance is loose and the coarse
                  * level may stop mid-way (a candidate 36 degrees off there
                  * reached the truth): a candidate is judged against the
-                 * refined leader on all points once its full rigid stage
-                 * has converged, and only then pays for the scale stage. */
+                 * refined leader on all points during its full rigid stage
+                 * (icp.c: projected overlap at the stage's end), and only
+                 * then pays for the scale stage. There it stops once it is
+                 * projected to end below the leader: it cannot win, and it
+                 * is reported where it stopped. */
                 sched.rigid_min_overlap = PKSS_FULL_REFINE_RATIO * lead_overlap;
+                sched.scale_min_overlap = lead_overlap;
                 double fs = ir[c].cover[0], ft = ir[c].cover[1];
                 if (fs >= PKSS_PART_COVERED && fs - ft > PKSS_PART_OF_WHOLE)
                     sched.free_scale = PKSS__SCALE_SOURCE_PART;
@@ -354,8 +358,9 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
                 if (st != PKSS_OK)
                     goto oom;
                 if (ir[c].duplicate_of >= 0 || ir[c].abandoned) {
-                    /* reached a refined candidate's rigid minimum (that
-                     * one stands for the basin), or fell behind the leader:
+                    /* reached a refined candidate's rigid minimum or final
+                     * pose (that one stands for the basin), or fell behind
+                     * the leader:
                      * reported at this pose (already scored on all points),
                      * not in the selection */
                     refined[c] = 0;
