@@ -28,7 +28,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define PKSS_KD_LEAF 10
+/* Leaf size: the ICP's nearest-neighbour queries (half of a registration's
+ * CPU time) ran ~4 % faster with 16 than with 10 (per-pair minimum of 6
+ * runs over 28 registrations); results do not depend on it. */
+#define PKSS_KD_LEAF 16
 /* A bound is "strictly farther" only beyond this relative slack: the
  * incremental box distance may exceed the exactly computed point distance
  * by a few ulps. */
