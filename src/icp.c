@@ -38,8 +38,8 @@
 #define ICP_MIN_PAIRS 10
 #define ICP_OVERLAP_DIST 2.0
 #define ICP_SAME_BASIN_RAD (1.0 * 3.14159265358979323846 / 180.0)
-/* Iterations at the floor over which a rigid stage's overlap gain is
- * measured, to project where it can end (pkss__icp_run). */
+/* Iterations over which a stage's overlap gain is measured, to project
+ * where it can end (pkss__icp_run). */
 #define ICP_GAIN_WINDOW 5
 
 void pkss__icp_view_full(const pkss_cloud *c, pkss__icp_view *v)
@@ -121,8 +121,8 @@ static void *backward(void *arg)
 /* Nearest template point of every source point (fwd) and nearest source
  * point of every template point (bwd), both within gate (template units);
  * UINT32_MAX where none; fwd_d2 / bwd_d2 the squared distances (bwd_d2 in
- * source units, where the backward search runs). fwd/bwd hold the previous call's answers on entry
- * (or UINT32_MAX) and serve as warm starts. The two directions are
+ * source units, where the backward search runs). fwd/bwd hold the previous
+ * call's answers on entry (or UINT32_MAX) and serve as warm starts. The two directions are
  * independent: large views run the backward one on a second thread. */
 static void correspond(const pkss__icp_view *src, const pkss__icp_view *tgt,
                        const pkss__pose *T, double gate, uint32_t *fwd,
