@@ -10,8 +10,6 @@
 #include <math.h>
 #include <string.h>
 
-#define PKSS_PI 3.14159265358979323846
-
 void pkss__cell_edges(int n_az, float *edges)
 {
     memset(edges, 0, PKSS_EDGES_SIZE * sizeof(float));

@@ -55,7 +55,6 @@
 #define STAT_SPARSE 0.1     /* rho_i < STAT_SPARSE * N / V */
 #define STAT_QUANTILE 0.005 /* box from the 0.5 % to the 99.5 % quantile */
 #define STAT_MIN_SIDE 0.02  /* box side >= this * longest side */
-#define STAT_PI 3.14159265358979323846
 
 /* ------------------------------------------------------------ graph */
 
@@ -335,7 +334,7 @@ pkss_status pkss__cull_stat(const double *xyz, size_t n, unsigned char *keep,
 
     double nv = background_density(xyz, n, dm);
     /* rho_i < STAT_SPARSE * N/V  <=>  r12^3 > 12 / (4/3 pi STAT_SPARSE N/V) */
-    double r3_max = nv > 0.0 ? (double)k / (4.0 / 3.0 * STAT_PI * STAT_SPARSE * nv)
+    double r3_max = nv > 0.0 ? (double)k / (4.0 / 3.0 * PKSS_PI * STAT_SPARSE * nv)
                              : HUGE_VAL;
 
     for (size_t i = 0; i < n; ++i) {

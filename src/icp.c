@@ -37,7 +37,7 @@
 #define ICP_GATE_FLOOR 3.0
 #define ICP_MIN_PAIRS 10
 #define ICP_OVERLAP_DIST 2.0
-#define ICP_SAME_BASIN_RAD (1.0 * 3.14159265358979323846 / 180.0)
+#define ICP_SAME_BASIN_RAD (1.0 * PKSS_PI / 180.0)
 /* Iterations over which a stage's overlap gain is measured, to project
  * where it can end (pkss__icp_run). */
 #define ICP_GAIN_WINDOW 5
@@ -306,55 +306,62 @@ static double coverage_gate(const pkss__icp_view *src,
  * density and keeps rising while a partial source is blown up, as long as
  * it stays smaller than the template -- it chose 16-25 % too large scales
  * on objects with 30-50 % cut away. RMS is that of the mutual pairs. */
-static void overlap_with(const pkss__icp_view *src, const pkss__icp_view *tgt,
-                         const pkss__pose *T, icp_work *w, double *overlap,
-                         double *rms, double *cover)
+/* The shares of each cloud covered by the other (f_s, f_t) from the
+ * answers of the last correspond() at pose T, whose gate was at least the
+ * coverage distance cg: the nearest partner within that gate is the nearest
+ * within cg whenever it lies inside cg. */
+static void coverage_from_pairs(const pkss__icp_view *src,
+                                const pkss__icp_view *tgt,
+                                const pkss__pose *T, double cg,
+                                const icp_work *w, double cover[2])
 {
-    correspond(src, tgt, T, coverage_gate(src, tgt, T), w->fwd, w->fwd_d2, w->bwd, w->bwd_d2);
-    size_t mutual = 0, fwd_hits = 0, bwd_hits = 0;
-    double ss = 0.0;
-    for (size_t i = 0; i < src->m; ++i) {
-        uint32_t j = w->fwd[i];
-        if (j == UINT32_MAX)
-            continue;
-        ++fwd_hits;
-        if (w->bwd[j] == i) {
-            ++mutual;
-            ss += w->fwd_d2[i];
-        }
-    }
-    for (size_t j = 0; j < tgt->m; ++j)
-        bwd_hits += w->bwd[j] != UINT32_MAX;
-    double fs = src->m ? (double)fwd_hits / (double)src->m : 0.0;
-    double ft = tgt->m ? (double)bwd_hits / (double)tgt->m : 0.0;
-    *overlap = sqrt(fs * ft);
-    if (cover) {
-        cover[0] = fs;
-        cover[1] = ft;
-    }
-    *rms = mutual ? sqrt(ss / (double)mutual) : 0.0;
-}
-
-/* The overlap score at the pose the last correspond() ran at, from its
- * answers: the nearest partner within the gate is the nearest within the
- * coverage distance whenever it lies inside that. Returns -1 if the gate
- * was narrower than the coverage distance (the answers cannot tell). */
-static double overlap_from_pairs(const pkss__icp_view *src,
-                                 const pkss__icp_view *tgt,
-                                 const pkss__pose *T, double gate,
-                                 const icp_work *w)
-{
-    double cg = coverage_gate(src, tgt, T);
-    if (gate < cg || src->m == 0 || tgt->m == 0)
-        return -1.0;
     double cg2 = cg * cg, cg2s = cg2 / (T->s * T->s);
     size_t fwd_hits = 0, bwd_hits = 0;
     for (size_t i = 0; i < src->m; ++i)
         fwd_hits += w->fwd[i] != UINT32_MAX && w->fwd_d2[i] <= cg2;
     for (size_t j = 0; j < tgt->m; ++j)
         bwd_hits += w->bwd[j] != UINT32_MAX && w->bwd_d2[j] <= cg2s;
-    return sqrt((double)fwd_hits / (double)src->m *
-                (double)bwd_hits / (double)tgt->m);
+    cover[0] = src->m ? (double)fwd_hits / (double)src->m : 0.0;
+    cover[1] = tgt->m ? (double)bwd_hits / (double)tgt->m : 0.0;
+}
+
+static void overlap_with(const pkss__icp_view *src, const pkss__icp_view *tgt,
+                         const pkss__pose *T, icp_work *w, double *overlap,
+                         double *rms, double *cover)
+{
+    double cg = coverage_gate(src, tgt, T), f[2];
+    correspond(src, tgt, T, cg, w->fwd, w->fwd_d2, w->bwd, w->bwd_d2);
+    coverage_from_pairs(src, tgt, T, cg, w, f);
+    size_t mutual = 0;
+    double ss = 0.0;
+    for (size_t i = 0; i < src->m; ++i) {
+        uint32_t j = w->fwd[i];
+        if (j != UINT32_MAX && w->bwd[j] == i) {
+            ++mutual;
+            ss += w->fwd_d2[i];
+        }
+    }
+    *overlap = sqrt(f[0] * f[1]);
+    if (cover) {
+        cover[0] = f[0];
+        cover[1] = f[1];
+    }
+    *rms = mutual ? sqrt(ss / (double)mutual) : 0.0;
+}
+
+/* The overlap score at the pose the last correspond() ran at (gate), from
+ * its answers; -1 if the gate was narrower than the coverage distance (the
+ * answers cannot tell). */
+static double overlap_from_pairs(const pkss__icp_view *src,
+                                 const pkss__icp_view *tgt,
+                                 const pkss__pose *T, double gate,
+                                 const icp_work *w)
+{
+    double cg = coverage_gate(src, tgt, T), f[2];
+    if (gate < cg)
+        return -1.0;
+    coverage_from_pairs(src, tgt, T, cg, w, f);
+    return sqrt(f[0] * f[1]);
 }
 
 pkss_status pkss__icp_overlap(const pkss__icp_view *src,
@@ -545,12 +552,11 @@ static void rescale_about(pkss__pose *T, const double *c, double f)
         T->t[d] = y[d] - T->s * Rc[d];
 }
 
-/* Centroid of the source points that have a template partner at T. */
-static void covered_centroid(const pkss__icp_view *src,
-                             const pkss__icp_view *tgt, const pkss__pose *T,
-                             icp_work *w, double *c)
+/* Centroid of the source points that have a template partner, from the
+ * answers of a correspond() at the coverage distance (overlap_with). */
+static void covered_centroid(const pkss__icp_view *src, const icp_work *w,
+                             double *c)
 {
-    correspond(src, tgt, T, coverage_gate(src, tgt, T), w->fwd, w->fwd_d2, w->bwd, w->bwd_d2);
     size_t n = 0;
     c[0] = c[1] = c[2] = 0.0;
     for (size_t i = 0; i < src->m; ++i)
@@ -584,6 +590,7 @@ pkss_status pkss__icp_scale_search(const pkss__icp_view *src,
     pkss_status st = PKSS_OK;
     pkss__icp_result best = *io;
     overlap_with(src, tgt, &best.pose, &w, &best.overlap, &best.rms, best.cover);
+    int w_at_best = 1; /* w holds the coverage answers at best.pose */
     for (size_t k = 0; k < sizeof SCALE_STEPS / sizeof *SCALE_STEPS; ++k) {
         double f = exp(SCALE_STEPS[k]);
         int dir = 0; /* direction that last improved; 0 = try both */
@@ -591,7 +598,12 @@ pkss_status pkss__icp_scale_search(const pkss__icp_view *src,
             pkss__icp_result next = best;
             int next_dir = 0;
             double c[3];
-            covered_centroid(src, tgt, &best.pose, &w, c);
+            if (!w_at_best)
+                correspond(src, tgt, &best.pose,
+                           coverage_gate(src, tgt, &best.pose), w.fwd,
+                           w.fwd_d2, w.bwd, w.bwd_d2);
+            w_at_best = 1;
+            covered_centroid(src, &w, c);
             for (int sgn = -1; sgn <= 1; sgn += 2) {
                 if (dir != 0 && sgn != dir)
                     continue;
@@ -610,6 +622,7 @@ pkss_status pkss__icp_scale_search(const pkss__icp_view *src,
                 break;
             best = next;
             dir = next_dir;
+            w_at_best = 0;
         }
     }
     *io = best;

@@ -13,6 +13,8 @@
 #include <stdint.h>
 
 #define PKSS_DETAIL_SIZE 4096
+/* pi, for the C side (the kernels do not need it) */
+#define PKSS_PI 3.14159265358979323846
 
 /* ---------------------------------------------------------------- params */
 typedef struct pkss__params {

@@ -12,7 +12,6 @@
 #include <stdio.h>
 #include <string.h>
 
-#define PKSS_PI 3.14159265358979323846
 /* Candidates refined at full resolution (by coarse overlap). */
 #define PKSS_FULL_REFINE 3
 #define PKSS_FULL_REFINE_RATIO 0.6
