@@ -37,10 +37,21 @@
 #define ICP_GATE_FLOOR 3.0
 #define ICP_MIN_PAIRS 10
 #define ICP_OVERLAP_DIST 2.0
-#define ICP_SAME_BASIN_RAD (1.0 * PKSS_PI / 180.0)
+#define ICP_SAME_BASIN_RAD (3.0 * PKSS_PI / 180.0)
 /* Iterations over which a stage's overlap gain is measured, to project
  * where it can end (pkss__icp_run). */
 #define ICP_GAIN_WINDOW 5
+/* A rigid stage whose overlap gained less than this over the window (3 of
+ * 3000 points) has settled: what is left is point-to-point ICP sliding by
+ * a small fraction of a spacing per iteration, which the scale stage
+ * carries on with anyway. */
+#define ICP_STAGNANT 1e-3
+/* ... while its pose moves less than this per iteration (pose_change, in
+ * pre-shape units: ~1/30 of a spacing). The overlap of a complete object
+ * saturates near 1 before the pose has arrived: a chef with noise read as
+ * settled while still turning by 2e-2 per iteration, 6 degrees short,
+ * and the scale stage's mutual pairs then held it there. */
+#define ICP_SETTLED_MOVE 2e-3
 
 void pkss__icp_view_full(const pkss_cloud *c, pkss__icp_view *v)
 {
@@ -379,9 +390,12 @@ pkss_status pkss__icp_overlap(const pkss__icp_view *src,
     return PKSS_OK;
 }
 
-/* Another run's minimum (not run id's own): within 1 degree, 1 template
- * spacing and 1 % scale (ICP steps near a minimum are far smaller;
- * distinct minima of the shapes we measured lie >= 15 degrees apart). */
+/* Another run's minimum (not run id's own): within 3 degrees, 1 template
+ * spacing and 1 % scale. Distinct minima of the shapes we measured lie
+ * >= 15 degrees apart, while two runs into the same minimum can creep
+ * toward it 1-1.5 degrees apart for 20+ iterations when the samplings
+ * differ (bunny with 5 % outliers: a 1-degree test let the second run go
+ * on for 47 iterations; at 3 degrees it stops after 8). */
 static int known_basin(const pkss__icp_basins *b, const pkss__pose *T,
                        double h, int id)
 {
@@ -473,7 +487,11 @@ pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
             n_ring = 0;
             ring_stage = scale_stage;
         }
-        if (bar > 0.0 && (scale_stage || gate_used <= floor_gate)) {
+        /* the overlap is tracked against a bar, and in a rigid stage
+         * before a scale stage, to see it settle (ICP_STAGNANT) */
+        int track = bar > 0.0 || (sched->free_scale && !scale_stage);
+        int stagnant = 0;
+        if (track && (scale_stage || gate_used <= floor_gate)) {
             /* A run heading for the bar gains overlap steadily; one caught
              * in a wrong minimum creeps (dragon, wrong candidates: 0.40 ->
              * 0.41 over 25 iterations against a bar of 0.6). Projecting the
@@ -491,9 +509,10 @@ pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
             if (n_ring > ICP_GAIN_WINDOW) {
                 double old = ov_ring[(n_ring - 1 - ICP_GAIN_WINDOW) % (ICP_GAIN_WINDOW + 1)];
                 double gain = (ov - old) / ICP_GAIN_WINDOW;
+                stagnant = ov - old < ICP_STAGNANT && change < ICP_SETTLED_MOVE;
                 double reach = ov + (gain > 0.0 ? gain : 0.0) *
                                         (double)(stage_end - it);
-                if (reach < bar) {
+                if (bar > 0.0 && reach < bar) {
                     overlap_with(src, tgt, &T, &w, &out->overlap, &out->rms, out->cover);
                     out->abandoned = 1;
                     ++it;
@@ -508,7 +527,19 @@ pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
                 break;
             }
         }
-        if (at_floor && change < 1e-6) {
+        /* A rigid stage ends once its overlap has settled, without waiting
+         * for the pose to stop: with unequal samplings of the two clouds
+         * (noise, outliers, resampling) point-to-point ICP slides on by
+         * ~1e-3 of the shape's size per iteration for 20+ iterations
+         * while no pair changes side of the coverage distance. The scale
+         * stage that follows moves the pose as well. Development seeds,
+         * with the 3-degree basin test (known_basin): strict results
+         * unchanged on missing parts, combined, noise, outliers and real
+         * pairs; median time -13 % with 5 % outliers, -15 % with noise
+         * r = 0.4 (nearest-neighbour queries -12 % and -6 % on missing
+         * parts). */
+        int rigid_settled = stagnant && !scale_stage && sched->free_scale;
+        if (at_floor && (change < 1e-6 || rigid_settled)) {
             if (scale_stage || !sched->free_scale) {
                 ++it;
                 break;
