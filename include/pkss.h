@@ -360,9 +360,13 @@ PKSS_API pkss_status pkss_cloud_points(const pkss_cloud *cloud, double *xyz,
 /* Evaluation                                                            */
 /* ===================================================================== */
 
-/** One candidate pose kept by the search (SPEC 5) and refined (SPEC 6). */
+/** One candidate pose kept by the search (SPEC 5) and refined (SPEC 6).
+ *  Its pose is the search's (Eq. 7-9, unrefined) if refine is off, or if
+ *  one of the two best-scored candidates already covered both clouds
+ *  (overlap >= 0.995 after its coarse level): the others are then only
+ *  scored, not refined. */
 typedef struct pkss_candidate {
-    double T_target_source[16]; /* refined pose (coarse if refine is off) */
+    double T_target_source[16]; /* refined pose (see above) */
     double scale;               /* s of T_target_source */
     double score;               /* G_K of the search, radians, [0, pi] */
     double score_contour;       /* G of the contour representatives */

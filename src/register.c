@@ -22,6 +22,13 @@
  * RMS is 7 times larger (0.0022 vs 0.00033). Only a shrunken pose could
  * gain from a low RMS, and it would not keep the overlap within this. */
 #define PKSS_OVERLAP_TIE 0.003
+/* Coarse overlap at which a candidate covers both clouds: complete objects
+ * that match (exact copies, density bands, noise) reach 0.995-1.0 at the
+ * coarse level's 2-spacing tolerance. Development seeds: every result
+ * unchanged on all synthetic cases and the 54 real pairs; median time
+ * -9 % on exact copies, -23 % with noise r = 0.4 (nearest-neighbour
+ * queries -27 % and -21 %). */
+#define PKSS_COARSE_COMPLETE 0.995
 /* Coverage asymmetry |f_s - f_t| (icp.c) above which one cloud is taken to
  * show a part of the other's surface, and the scale is searched before the
  * full refinement: the pre-shape scale ratio sigma_t / sigma_s is right
@@ -313,8 +320,25 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
         order[c] = (int)c;
         list[c] = (int)c;
     }
-    /* every candidate's local rotation and coarse level, two at a time */
+    /* Every candidate's local rotation and coarse level, two at a time:
+     * first the two best by search score. If one of them already covers
+     * both clouds (PKSS_COARSE_COMPLETE), no other can beat its overlap by
+     * more than 0.005, so the rest are only scored at the search's pose. */
+    size_t wave = kept < 2 ? kept : 2;
+    cw.n_list = wave;
     for_each_candidate(&cw);
+    double wave_best = 0.0;
+    for (size_t c = 0; c < wave; ++c)
+        if (cst[c] == PKSS_OK && ir[c].overlap > wave_best)
+            wave_best = ir[c].overlap;
+    if (kept > wave) {
+        cand_work rest = cw;
+        rest.list = list + wave;
+        rest.n_list = kept - wave;
+        if (wave_best >= PKSS_COARSE_COMPLETE)
+            rest.refine = 0;
+        for_each_candidate(&rest);
+    }
     for (size_t c = 0; c < kept; ++c)
         if (cst[c] != PKSS_OK) {
             st = cst[c];
