@@ -363,7 +363,7 @@ PKSS_API pkss_status pkss_cloud_points(const pkss_cloud *cloud, double *xyz,
 /** One candidate pose kept by the search (SPEC 5) and refined (SPEC 6).
  *  Its pose is the search's (Eq. 7-9, unrefined) if refine is off, or if
  *  one of the two best-scored candidates already covered both clouds
- *  (overlap >= 0.995 after its coarse level): the others are then only
+ *  (overlap >= 0.98 after its coarse level): the others are then only
  *  scored, not refined. */
 typedef struct pkss_candidate {
     double T_target_source[16]; /* refined pose (see above) */
