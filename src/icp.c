@@ -536,8 +536,8 @@ pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
          * with the 3-degree basin test (known_basin): strict results
          * unchanged on missing parts, combined, noise, outliers and real
          * pairs; median time -13 % with 5 % outliers, -15 % with noise
-         * r = 0.4 (nearest-neighbour queries -12 % and -6 % on missing
-         * parts). */
+         * r = 0.4 (nearest-neighbour queries: -12 % with outliers, -6 %
+         * with missing parts). */
         int rigid_settled = stagnant && !scale_stage && sched->free_scale;
         if (at_floor && (change < 1e-6 || rigid_settled)) {
             if (scale_stage || !sched->free_scale) {
