@@ -133,8 +133,9 @@ static void *backward(void *arg)
  * point of every template point (bwd), both within gate (template units);
  * UINT32_MAX where none; fwd_d2 / bwd_d2 the squared distances (bwd_d2 in
  * source units, where the backward search runs). fwd/bwd hold the previous
- * call's answers on entry (or UINT32_MAX) and serve as warm starts. The two directions are
- * independent: large views run the backward one on a second thread. */
+ * call's answers on entry (or UINT32_MAX) and serve as warm starts. The two
+ * directions are independent: large views run the backward one on a second
+ * thread. */
 static void correspond(const pkss__icp_view *src, const pkss__icp_view *tgt,
                        const pkss__pose *T, double gate, uint32_t *fwd,
                        double *fwd_d2, uint32_t *bwd, double *bwd_d2)
@@ -305,18 +306,6 @@ static double coverage_gate(const pkss__icp_view *src,
     return ICP_OVERLAP_DIST * (h > hs ? h : hs);
 }
 
-/* Coverage overlap: f_s = share of source points with a template point
- * within d, f_t = share of template points with a source point within d,
- * overlap = sqrt(f_s f_t), d = 2 x the coarser of the two spacings (in
- * template units). Both clouds are uniform samples of their surfaces, so
- * f_s = |A_o| / |A_s| and f_t = |A_o| / |A_t| (A_o = overlap area) and the
- * score is |A_o| / sqrt(|A_s| |A_t|): it falls when the source shrinks
- * (|A_o| shrinks with it) and when it grows past the template's rims (the
- * overhang is uncovered). Deviation from SPEC 6 (mutual pairs / min(n_s,
- * n_t)): that count is |A_o| / max(|A_s|, |A_t|) times the sparser
- * density and keeps rising while a partial source is blown up, as long as
- * it stays smaller than the template -- it chose 16-25 % too large scales
- * on objects with 30-50 % cut away. RMS is that of the mutual pairs. */
 /* The shares of each cloud covered by the other (f_s, f_t) from the
  * answers of the last correspond() at pose T, whose gate was at least the
  * coverage distance cg: the nearest partner within that gate is the nearest
@@ -336,6 +325,18 @@ static void coverage_from_pairs(const pkss__icp_view *src,
     cover[1] = tgt->m ? (double)bwd_hits / (double)tgt->m : 0.0;
 }
 
+/* Coverage overlap: f_s = share of source points with a template point
+ * within d, f_t = share of template points with a source point within d,
+ * overlap = sqrt(f_s f_t), d = 2 x the coarser of the two spacings (in
+ * template units). Both clouds are uniform samples of their surfaces, so
+ * f_s = |A_o| / |A_s| and f_t = |A_o| / |A_t| (A_o = overlap area) and the
+ * score is |A_o| / sqrt(|A_s| |A_t|): it falls when the source shrinks
+ * (|A_o| shrinks with it) and when it grows past the template's rims (the
+ * overhang is uncovered). Deviation from SPEC 6 (mutual pairs / min(n_s,
+ * n_t)): that count is |A_o| / max(|A_s|, |A_t|) times the sparser
+ * density and keeps rising while a partial source is blown up, as long as
+ * it stays smaller than the template -- it chose 16-25 % too large scales
+ * on objects with 30-50 % cut away. RMS is that of the mutual pairs. */
 static void overlap_with(const pkss__icp_view *src, const pkss__icp_view *tgt,
                          const pkss__pose *T, icp_work *w, double *overlap,
                          double *rms, double *cover)
@@ -343,15 +344,10 @@ static void overlap_with(const pkss__icp_view *src, const pkss__icp_view *tgt,
     double cg = coverage_gate(src, tgt, T), f[2];
     correspond(src, tgt, T, cg, w->fwd, w->fwd_d2, w->bwd, w->bwd_d2);
     coverage_from_pairs(src, tgt, T, cg, w, f);
-    size_t mutual = 0;
-    double ss = 0.0;
-    for (size_t i = 0; i < src->m; ++i) {
-        uint32_t j = w->fwd[i];
-        if (j != UINT32_MAX && w->bwd[j] == i) {
-            ++mutual;
-            ss += w->fwd_d2[i];
-        }
-    }
+    double d2max = 0.0, ss = 0.0;
+    size_t mutual = add_mutual_pairs(w, src->m, &d2max);
+    for (size_t k = 0; k < mutual; ++k)
+        ss += w->fwd_d2[w->pi[k]];
     *overlap = sqrt(f[0] * f[1]);
     if (cover) {
         cover[0] = f[0];

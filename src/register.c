@@ -313,6 +313,8 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
     pkss_status cst[PKSS_MAX_CANDIDATES];
     int order[PKSS_MAX_CANDIDATES], list[PKSS_MAX_CANDIDATES];
     int refined[PKSS_MAX_CANDIDATES] = {0};
+    /* scored on all points at its final pose already (CAND_START unrefined) */
+    int scored[PKSS_MAX_CANDIDATES] = {0};
     pkss__icp_basins basins;
     basins.n = 0;
     cand_work cw = {ss, src, tgt, picks, &sv, &tv, &svc, &tvc, &coarse,
@@ -336,8 +338,11 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
         cand_work rest = cw;
         rest.list = list + wave;
         rest.n_list = kept - wave;
-        if (wave_best >= PKSS_COARSE_COMPLETE)
+        if (wave_best >= PKSS_COARSE_COMPLETE) {
             rest.refine = 0;
+            for (size_t k = wave; k < kept; ++k)
+                scored[list[k]] = 1;
+        }
         for_each_candidate(&rest);
     }
     for (size_t c = 0; c < kept; ++c)
@@ -423,7 +428,7 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
                 } else if (ir[c].overlap > lead_overlap) {
                     lead_overlap = ir[c].overlap;
                 }
-            } else {
+            } else if (!scored[c]) {
                 list[n_rest++] = c;
             }
         }
@@ -448,8 +453,8 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
         double top = ir[best].overlap;
         for (size_t i = 0; i < n_full; ++i) {
             int c = order[i];
-            if ((refined[c] || c == order[0]) &&
-                ir[c].overlap >= top - PKSS_OVERLAP_TIE && ir[c].rms < ir[best].rms)
+            if (refined[c] && ir[c].overlap >= top - PKSS_OVERLAP_TIE &&
+                ir[c].rms < ir[best].rms)
                 best = c;
         }
     }
