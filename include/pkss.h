@@ -205,7 +205,9 @@ typedef enum pkss_param {
     /* int: rotations in the uniform set. Default 1728, range 24..20000. */
     PKSS_PARAM_ROTATION_COUNT = 121,
     /* int: candidates kept after the search and refined (SPEC 5).
-     * Default 10, range 1..PKSS_MAX_CANDIDATES. */
+     * Default 10, range 1..PKSS_MAX_CANDIDATES. A second search (see
+     * pkss_candidate) keeps as many more, up to PKSS_MAX_CANDIDATES in
+     * all. */
     PKSS_PARAM_TOP_K = 122,
     /* switch: overlap-aware similarity ICP (SPEC 6). Default on; off
      * returns the best search candidate unrefined. */
@@ -364,7 +366,13 @@ PKSS_API pkss_status pkss_cloud_points(const pkss_cloud *cloud, double *xyz,
  *  Its pose is the search's (Eq. 7-9, unrefined) if refine is off, or if
  *  one of the two best-scored candidates already covered both clouds
  *  (overlap >= 0.98 after its coarse level): the others are then only
- *  scored, not refined. */
+ *  scored, not refined.
+ *  When the winner of the search covers neither cloud (a part of an object
+ *  whose centroid lies beyond the paper's offset grid, or two partial
+ *  scans), a second search runs on a wide offset grid (the same
+ *  offset_steps^3 offsets at twice the step, +-E/2 along the template's PCA
+ *  axes) and its candidates follow the first search's; the winner is the
+ *  best of both. */
 typedef struct pkss_candidate {
     double T_target_source[16]; /* refined pose (see above) */
     double scale;               /* s of T_target_source */
@@ -376,7 +384,9 @@ typedef struct pkss_candidate {
                                    f = share of each cloud's resampled
                                    points within 2 spacings of the other */
     uint32_t rotation_index;    /* index into the rotation candidate set */
-    uint32_t offset_index;      /* index into the offset candidate set */
+    uint32_t offset_index;      /* index into the offset candidate set;
+                                   n_offsets + i: offset i of the wide
+                                   grid (second search) */
 } pkss_candidate;
 
 /** Seconds spent in each stage (wall clock). */
@@ -402,10 +412,12 @@ typedef struct pkss_result {
     double overlap;             /* winner's overlap score in [0, 1] */
     uint32_t winner;            /* index of the winner in candidates[] */
     uint32_t n_candidates;      /* entries used in candidates[] */
-    pkss_candidate candidates[32]; /* PKSS_MAX_CANDIDATES, best score first */
+    pkss_candidate candidates[32]; /* PKSS_MAX_CANDIDATES, best score
+                                      first (each search's, see above) */
     uint32_t n_rotations;       /* rotation candidates searched */
-    uint32_t n_offsets;         /* offset candidates searched */
-    uint64_t n_evaluations;     /* shape measurements computed */
+    uint32_t n_offsets;         /* offset candidates per search */
+    uint64_t n_evaluations;     /* shape measurements computed (both
+                                   searches, if a second one ran) */
     pkss_counts source_counts;
     pkss_counts target_counts;
     pkss_timings timings;

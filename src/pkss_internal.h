@@ -249,6 +249,11 @@ pkss_status pkss__search_setup_build(const pkss__params *p,
                                      const pkss_cloud *tgt,
                                      pkss__search_setup *s);
 void pkss__search_setup_free(pkss__search_setup *s);
+/* Replaces the offsets by the wide grid: the same N^3 offsets at twice the
+ * step, reaching +-E/2 along each axis (the second pass of register.c). */
+pkss_status pkss__search_setup_widen(const pkss__params *p,
+                                     const pkss_cloud *tgt,
+                                     pkss__search_setup *s);
 
 /* scores: n_rotations * n_offsets G_K values, rotation-major. Gc/Gf may be
  * NULL; otherwise they get G_contour and G_feature. */

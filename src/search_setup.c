@@ -11,8 +11,11 @@
 #include <string.h>
 
 /* Offsets of the template's binning centre along its PCA axes (Eq. 11-12,
- * SPEC 5): q = (a E_u u + b E_v v + c E_w w) / 8, a, b, c in -h..h. */
-static float *build_offsets(const pkss_cloud *tgt, int N, int *count)
+ * SPEC 5): q = (a E_u u + b E_v v + c E_w w) / div, a, b, c in -h..h;
+ * div = 8 is the paper's grid (+-E/4 at N = 5), div = 4 the wide one
+ * (pkss__search_setup_widen). */
+static float *build_offsets(const pkss_cloud *tgt, int N, double div,
+                            int *count)
 {
     int h = N / 2, n = N * N * N;
     float *q = pkss__malloc((size_t)n * 3 * sizeof(float));
@@ -22,9 +25,9 @@ static float *build_offsets(const pkss_cloud *tgt, int N, int *count)
     for (int a = -h; a <= h; ++a)
         for (int b = -h; b <= h; ++b)
             for (int c = -h; c <= h; ++c) {
-                double f[3] = {a * tgt->half_extent[0] / 8.0,
-                               b * tgt->half_extent[1] / 8.0,
-                               c * tgt->half_extent[2] / 8.0};
+                double f[3] = {a * tgt->half_extent[0] / div,
+                               b * tgt->half_extent[1] / div,
+                               c * tgt->half_extent[2] / div};
                 for (int d = 0; d < 3; ++d)
                     q[3 * k + d] = (float)(tgt->axes[3 * d] * f[0] +
                                            tgt->axes[3 * d + 1] * f[1] +
@@ -83,7 +86,7 @@ pkss_status pkss__search_setup_build(const pkss__params *p,
         pkss__search_setup_free(s);
         return st;
     }
-    s->offsets = build_offsets(tgt, p->offset_steps, &s->n_offsets);
+    s->offsets = build_offsets(tgt, p->offset_steps, 8.0, &s->n_offsets);
     s->src_pts = pkss__malloc(src->m * 3 * sizeof(float));
     s->tgt_pts = pkss__malloc(tgt->m * 3 * sizeof(float));
     s->src_feat = pkss__malloc((src->n_feat + 1) * 3 * sizeof(float));
@@ -108,5 +111,21 @@ pkss_status pkss__search_setup_build(const pkss__params *p,
         .use_features = p->use_features,
     };
     s->in = in;
+    return PKSS_OK;
+}
+
+pkss_status pkss__search_setup_widen(const pkss__params *p,
+                                     const pkss_cloud *tgt,
+                                     pkss__search_setup *s)
+{
+    int n;
+    float *q = build_offsets(tgt, p->offset_steps, 4.0, &n);
+    if (!q)
+        return PKSS_ERR_OUT_OF_MEMORY;
+    pkss__free(s->offsets);
+    s->offsets = q;
+    s->n_offsets = n;
+    s->in.offsets = q;
+    s->in.n_offsets = n;
     return PKSS_OK;
 }

@@ -1001,21 +1001,26 @@ static void print_verbose(const run_info *ri, const pkss_result *r)
     fprintf(stderr, TOOL ": points per step:\n");
     print_counts("source", &r->source_counts);
     print_counts("target", &r->target_counts);
+    int wide = r->n_evaluations > (uint64_t)r->n_rotations * r->n_offsets;
     fprintf(stderr,
-            TOOL ": searched %u rotations x %u offsets (%llu evaluations), "
+            TOOL ": searched %u rotations x %u offsets%s (%llu evaluations), "
                  "backend %s\n",
             (unsigned)r->n_rotations, (unsigned)r->n_offsets,
+            wide ? ", twice (then on the wide offset grid)" : "",
             (unsigned long long)r->n_evaluations, backend_name(r->backend));
-    fprintf(stderr, TOOL ": candidates (best score first, * = winner):\n");
+    fprintf(stderr, TOOL ": candidates (best score first%s, * = winner):\n",
+            wide ? " in each search; wide# = wide offset grid" : "");
     for (i = 0; i < r->n_candidates && i < PKSS_MAX_CANDIDATES; i++) {
         const pkss_candidate *c = &r->candidates[i];
+        int on_wide = c->offset_index >= r->n_offsets;
         fprintf(stderr,
                 "  %c%2u score %.5f (contour %.5f, feature %.5f) scale "
-                "%.6g rms %.6g overlap %.4f rot#%u off#%u\n",
+                "%.6g rms %.6g overlap %.4f rot#%u %s#%u\n",
                 i == r->winner ? '*' : ' ', (unsigned)i, c->score,
                 c->score_contour, c->score_feature, c->scale, c->rms,
                 c->overlap, (unsigned)c->rotation_index,
-                (unsigned)c->offset_index);
+                on_wide ? "wide" : "off",
+                (unsigned)(c->offset_index - (on_wide ? r->n_offsets : 0)));
     }
 }
 

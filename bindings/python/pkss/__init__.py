@@ -286,7 +286,7 @@ class Candidate:
     rms: float  #: RMS of the final mutual pairs, target units
     overlap: float  #: overlap score in [0, 1]
     rotation_index: int  #: index into the rotation candidate set
-    offset_index: int  #: index into the offset candidate set
+    offset_index: int  #: index into the offset set; ``n_offsets + i``: wide grid (second search)
 
     def apply(self, points: ArrayLike) -> np.ndarray:
         """Map (N, 3) source points into the target frame with this pose."""
@@ -311,9 +311,11 @@ class Result:
     rms: float  #: the winner's RMS residual, target units
     overlap: float  #: the winner's overlap score in [0, 1]
     winner: int  #: index of the winner in ``candidates``
-    candidates: List[Candidate]  #: refined candidates, best search score first
+    #: refined candidates, best search score first; a second search's (on the
+    #: wide offset grid, run when the first winner covers neither cloud) follow
+    candidates: List[Candidate]
     n_rotations: int  #: rotation candidates searched
-    n_offsets: int  #: offset candidates searched
+    n_offsets: int  #: offset candidates per search
     n_evaluations: int  #: shape measurements computed
     timings: Timings  #: seconds per stage
     counts: PairCounts  #: points kept per pre-processing step
@@ -847,7 +849,8 @@ def register(
         Rotations in the 'uniform' set. Default 1728; range 24..20000.
     top_k : int, optional
         Candidates kept after the search and refined. Default 10;
-        range 1..32.
+        range 1..32. A second search (wide offset grid, run when the
+        first winner covers neither cloud) keeps as many more, up to 32.
     refine : bool, optional
         Overlap-aware similarity ICP on each candidate; False returns the
         best search candidate unrefined. Default True.
