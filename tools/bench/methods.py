@@ -71,6 +71,10 @@ def run_pkss(src, tgt, seed):
             "t_search": float(tim.get("search", float("nan"))),
             "t_refine": float(tim.get("refine", float("nan"))),
             "t_pre": float(tim.get("preprocess", float("nan")))}
+    per_search = getattr(res, "n_rotations", 0) * getattr(res, "n_offsets", 0)
+    if per_search:
+        # 2 when the second search (wide offset grid) ran
+        info["searches"] = int(getattr(res, "n_evaluations", 0) // per_search)
     return np.asarray(res.transform, dtype=np.float64), info
 
 
