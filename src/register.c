@@ -533,7 +533,7 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
      * +-2: so had all 11 failures with parts on the development seeds,
      * and every one scored a higher overlap at the true pose, where the
      * part is covered (f_s >= 0.98), than at the pose it ended in. A search
-     * on the wide grid alone loses the paper grid's resolution (it broke 7
+     * on the wide grid alone loses the paper grid's resolution (it broke 8
      * development pairs, among them the dragon's 96 -> 72 scan), so it only
      * adds candidates, which must beat the first search's winner on
      * overlap. Development seeds: 30-50 % missing 28 -> 30/35, combined
