@@ -231,6 +231,12 @@ static void for_each_candidate(const cand_work *w)
     }
 }
 
+static pkss_status fail_oom(pkss_context *ctx)
+{
+    return pkss__fail(ctx, PKSS_ERR_OUT_OF_MEMORY,
+                      "out of memory during the search/refinement");
+}
+
 /* The candidates of a registration, of one search or two (run): the second
  * search's follow the first's, so one index names a candidate in every
  * array and in pkss_result.candidates. */
@@ -455,8 +461,7 @@ static pkss_status search_pass(pkss_context *ctx, const pkss_cloud *src,
     goto done;
 
 oom:
-    st = pkss__fail(ctx, PKSS_ERR_OUT_OF_MEMORY,
-                    "out of memory during the search/refinement");
+    st = fail_oom(ctx);
 done:
     pkss__free(scores);
     pkss__free(gc);
@@ -500,8 +505,7 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
     }
     st = pkss__search_setup_build(p, src, tgt, ss);
     if (st != PKSS_OK) {
-        st = pkss__fail(ctx, PKSS_ERR_OUT_OF_MEMORY,
-                        "out of memory during the search/refinement");
+        st = fail_oom(ctx);
         goto done;
     }
     cs->search_seconds = pkss__now() - t0;
@@ -550,8 +554,7 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
         double t2 = pkss__now();
         st = pkss__search_setup_widen(p, tgt, ss);
         if (st != PKSS_OK) {
-            st = pkss__fail(ctx, PKSS_ERR_OUT_OF_MEMORY,
-                            "out of memory during the search/refinement");
+            st = fail_oom(ctx);
             goto done;
         }
         cs->search_seconds += pkss__now() - t2;

@@ -56,6 +56,23 @@ static double *random_subset(pkss_test_rng *rng, const double *xyz, size_t n,
     return out;
 }
 
+/* Registers src onto tgt and returns the pose error against the ground
+ * truth T (target = T * source), measured at the source's centroid; a
+ * failed registration fails the test with `what` and the library's detail. */
+static pkss_test_err register_and_score(pkss_context *ctx, const double *src,
+                                        size_t ns, const double *tgt, size_t nt,
+                                        const double T[16], pkss_result *res,
+                                        const char *what)
+{
+    pkss_result_init(res);
+    pkss_status st = pkss_register(ctx, src, ns, tgt, nt, res);
+    if (st != PKSS_OK)
+        fail_msg("%s: %s: %s", what, pkss_status_name(st), pkss_context_last_error(ctx));
+    double at[3];
+    pkss_test_centroid(src, ns, at);
+    return pkss_test_pose_error(res->T_target_source, T, at);
+}
+
 typedef struct e2e_stats {
     int cases, ok;
 } e2e_stats;
@@ -76,14 +93,9 @@ static void run_random_cases(const char *file, int n_cases, uint64_t seed,
         pkss_test_random_similarity(&rng, diameter, T);
         pkss_test_apply(T, tgt, nt, tgt);
         pkss_result res;
-        pkss_result_init(&res);
-        pkss_status st = pkss_register(ctx, src, ns, tgt, nt, &res);
-        if (st != PKSS_OK)
-            fail_msg("%s case %d: %s: %s", file, c, pkss_status_name(st),
-                     pkss_context_last_error(ctx));
-        double at[3];
-        pkss_test_centroid(src, ns, at);
-        pkss_test_err e = pkss_test_pose_error(res.T_target_source, T, at);
+        char what[256];
+        snprintf(what, sizeof what, "%s case %d", file, c);
+        pkss_test_err e = register_and_score(ctx, src, ns, tgt, nt, T, &res, what);
         double s_gt, R_gt[9];
         pkss_test_decompose(T, &s_gt, R_gt);
         double trans_rel = e.trans / (diameter * s_gt);
@@ -144,13 +156,7 @@ static void register_pair_gt(const char *src_file, const char *tgt_file,
     }
     pkss_context *ctx = make_context();
     pkss_result res;
-    pkss_result_init(&res);
-    pkss_status st = pkss_register(ctx, src, ns, tgt, nt, &res);
-    if (st != PKSS_OK)
-        fail_msg("%s: %s", pkss_status_name(st), pkss_context_last_error(ctx));
-    double at[3];
-    pkss_test_centroid(src, ns, at);
-    pkss_test_err e = pkss_test_pose_error(res.T_target_source, T, at);
+    pkss_test_err e = register_and_score(ctx, src, ns, tgt, nt, T, &res, src_file);
     double diameter = pkss_test_diameter(tgt, nt);
     printf("  %s -> %s: rot %.5f deg, scale %.5f %%, trans %.5f %% of diameter, "
            "overlap %.3f, %.2f s\n",
@@ -296,13 +302,8 @@ static void test_part_beyond_offset_grid(void **state)
     pkss_test_apply(T, cloud, n, target);
     pkss_context *ctx = make_context();
     pkss_result res;
-    pkss_result_init(&res);
-    pkss_status st = pkss_register(ctx, part, n_part, target, n, &res);
-    if (st != PKSS_OK)
-        fail_msg("%s: %s", pkss_status_name(st), pkss_context_last_error(ctx));
-    double at[3];
-    pkss_test_centroid(part, n_part, at);
-    pkss_test_err e = pkss_test_pose_error(res.T_target_source, T, at);
+    pkss_test_err e = register_and_score(ctx, part, n_part, target, n, T, &res,
+                                         "parasaurolophus part");
     const pkss_candidate *w = &res.candidates[res.winner];
     printf("  parasaurolophus, 40 %% cut away: rot %.3f deg, scale %.3f %%, "
            "trans %.3f %% of diameter, overlap %.3f, winner's offset %u of %u "
