@@ -372,7 +372,10 @@ PKSS_API pkss_status pkss_cloud_points(const pkss_cloud *cloud, double *xyz,
  *  scans), a second search runs on a wide offset grid (the same
  *  offset_steps^3 offsets at twice the step, +-E/2 along the template's PCA
  *  axes) and its candidates follow the first search's; the winner is the
- *  best of both. */
+ *  best of both. The second search scores with a trimmed G: the 80 % of
+ *  the matched cells that the pairs' best rotation fits best (the cells
+ *  that look into a missing part are left out), so its candidates' score,
+ *  score_contour and score_feature are trimmed G values. */
 typedef struct pkss_candidate {
     double T_target_source[16]; /* refined pose (see above) */
     double scale;               /* s of T_target_source */

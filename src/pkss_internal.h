@@ -228,6 +228,9 @@ typedef struct pkss__search_input {
     int n_offsets;
     const float *offsets;       /* n_offsets x 3 binning centres */
     int use_features;
+    /* Share of the matched pairs the measure keeps: 1 = the paper's G,
+     * < 1 = the trimmed G of the wide second search (pkss_shared.h). */
+    float keep;
 } pkss__search_input;
 
 /* The assembled search of two clouds (search_setup.c): everything in
@@ -251,6 +254,9 @@ pkss_status pkss__search_setup_build(const pkss__params *p,
 void pkss__search_setup_free(pkss__search_setup *s);
 /* Replaces the offsets by the wide grid: the same N^3 offsets at twice the
  * step, reaching +-E/2 along each axis (the second pass of register.c). */
+/* Share of the matched pairs the wide search's measure keeps (trimmed G,
+ * pkss_shared.h). */
+#define PKSS_WIDE_KEEP 0.8f
 pkss_status pkss__search_setup_widen(const pkss__params *p,
                                      const pkss_cloud *tgt,
                                      pkss__search_setup *s);

@@ -545,7 +545,13 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
      * degrees off before), nothing lost. A winner that covers one of the
      * clouds (a placed part, a complete object) ends the search: no
      * complete object on those seeds ran the second search, while 33 of
-     * the 54 real pairs did (median time +16 %). */
+     * the 54 real pairs did (median time +16 %).
+     * The second search scores with the trimmed G (PKSS_WIDE_KEEP,
+     * pkss_shared.h): the paper's G ranked the true rotation of a part
+     * 209th-646th of 744 (parasaurolophus, 40 % cut away), as the cells
+     * that look into the missing part pair the whole's far contour with
+     * the part's cut rim. Development seeds: 30-50 % missing 30 -> 32/35,
+     * combined 32 -> 33/35, real pairs unchanged, nothing lost. */
     const pkss__icp_result *w = &cs->ir[best];
     size_t room = PKSS_MAX_CANDIDATES - cs->n;
     size_t k2 = (size_t)p->top_k < room ? (size_t)p->top_k : room;

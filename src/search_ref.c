@@ -67,9 +67,10 @@ pkss_status pkss__search_ref(pkss_context *ctx, const pkss__search_input *in,
         int shift = rot->shift[r];
         for (size_t o = 0; o < n_off; ++o) {
             size_t k = r * n_off + o;
-            float gc = pkss_score_pair(s, shift, tgt + o * table, occ[2 * o], n_az);
+            float gc = pkss_score_pair(s, shift, tgt + o * table, occ[2 * o],
+                                       n_az, in->keep);
             float gf = feat ? pkss_score_pair(sf, shift, tgt_feat + o * table,
-                                              occ[2 * o + 1], n_az)
+                                              occ[2 * o + 1], n_az, in->keep)
                             : 0.0f;
             scores[k] = gc > gf ? gc : gf;
             if (g_contour)

@@ -109,6 +109,7 @@ pkss_status pkss__search_setup_build(const pkss__params *p,
         .tgt_feat = s->tgt_feat, .n_tgt_feat = (int)tgt->n_feat,
         .rot = &s->rot, .n_offsets = s->n_offsets, .offsets = s->offsets,
         .use_features = p->use_features,
+        .keep = 1.0f,
     };
     s->in = in;
     return PKSS_OK;
@@ -127,5 +128,6 @@ pkss_status pkss__search_setup_widen(const pkss__params *p,
     s->n_offsets = n;
     s->in.offsets = q;
     s->in.n_offsets = n;
+    s->in.keep = PKSS_WIDE_KEEP;
     return PKSS_OK;
 }

@@ -4,8 +4,8 @@
  * candidate score (G_K, G_contour, G_feature of all rotation x offset
  * pairs) within SCORE_TOL and identical top-k lists, on real scans from
  * ../shared/data, for the Euler set, the uniform set, non-default
- * cell/rotation/offset steps, features off, and the one-lane (GPU) kernel
- * variant; device listing and selection; error reporting. Skips with a
+ * cell/rotation/offset steps, features off, the wide second search with the
+ * trimmed measure, and the one-lane (GPU) kernel variant; device listing and selection; error reporting. Skips with a
  * reason when there is no OpenCL device.
  */
 #define _POSIX_C_SOURCE 200809L
@@ -80,10 +80,11 @@ typedef struct compare_stats {
 } compare_stats;
 
 /* Builds the search input of (a 70 % subset of) `file` against a random
- * similarity copy of another 70 % subset, runs both backends and compares
- * every score and the top-k selection. */
+ * similarity copy of another 70 % subset, on the paper's offset grid or
+ * (wide) on the second search's wide grid with the trimmed measure, runs
+ * both backends and compares every score and the top-k selection. */
 static void compare_on(pkss_context *ctx, const char *file, uint64_t seed,
-                       compare_stats *total)
+                       int wide, compare_stats *total)
 {
     size_t n = 0;
     double *cloud = pkss_test_load(file, &n);
@@ -99,6 +100,10 @@ static void compare_on(pkss_context *ctx, const char *file, uint64_t seed,
     pkss_status st = search_fixture_build(ctx, src, ns, tgt, nt, &f);
     if (st != PKSS_OK)
         fail_msg("%s: %s", pkss_status_name(st), pkss_context_last_error(ctx));
+    if (wide) {
+        assert_int_equal(pkss__search_setup_widen(&ctx->params, f.tgt, &f.setup), PKSS_OK);
+        assert_true(f.setup.in.keep < 1.0f);
+    }
     size_t total_pairs = f.setup.rot.n_rotations * (size_t)f.setup.n_offsets;
     float *ref = malloc(3 * total_pairs * sizeof(float));
     float *dev = malloc(3 * total_pairs * sizeof(float));
@@ -409,7 +414,7 @@ static void test_scores_real_scans_default(void **state)
     pkss_context *ctx = opencl_context();
     compare_stats s = {0, 0, 0};
     for (size_t i = 0; i < N_SCANS; ++i)
-        compare_on(ctx, REAL_SCANS[i], g_seed + 17 * i, &s);
+        compare_on(ctx, REAL_SCANS[i], g_seed + 17 * i, 0, &s);
     printf("  default search, %zu pairs x 3 scores: max |diff| %.3g, %.2f %% bit-equal\n",
            s.pairs, s.max_diff, 100.0 * s.bit_equal / (3.0 * s.pairs));
     pkss_context_destroy(ctx);
@@ -422,10 +427,25 @@ static void test_scores_uniform_rotations(void **state)
     assert_int_equal(pkss_context_set_int(ctx, PKSS_PARAM_ROTATION_SET, PKSS_ROTATIONS_UNIFORM),
                      PKSS_OK);
     assert_int_equal(pkss_context_set_int(ctx, PKSS_PARAM_ROTATION_COUNT, 1000), PKSS_OK);
-    compare_on(ctx, REAL_SCANS[0], g_seed + 101, NULL);
+    compare_on(ctx, REAL_SCANS[0], g_seed + 101, 0, NULL);
     assert_int_equal(pkss_context_set_int(ctx, PKSS_PARAM_ROTATION_COUNT, 300), PKSS_OK);
     assert_int_equal(pkss_context_set_int(ctx, PKSS_PARAM_OFFSET_STEPS, 3), PKSS_OK);
-    compare_on(ctx, REAL_SCANS[3], g_seed + 102, NULL);
+    compare_on(ctx, REAL_SCANS[3], g_seed + 102, 0, NULL);
+    pkss_context_destroy(ctx);
+}
+
+/* The wide second search (register.c): the wide grid and the trimmed
+ * measure, whose bisection and second fit the kernel must run exactly as
+ * the reference. */
+static void test_scores_trimmed_wide_grid(void **state)
+{
+    (void)state;
+    pkss_context *ctx = opencl_context();
+    compare_stats s = {0, 0, 0};
+    for (size_t i = 0; i < N_SCANS; ++i)
+        compare_on(ctx, REAL_SCANS[i], g_seed + 400 + 17 * i, 1, &s);
+    printf("  wide trimmed search, %zu pairs x 3 scores: max |diff| %.3g, %.2f %% bit-equal\n",
+           s.pairs, s.max_diff, 100.0 * s.bit_equal / (3.0 * s.pairs));
     pkss_context_destroy(ctx);
 }
 
@@ -451,7 +471,7 @@ static void test_scores_other_steps(void **state)
         assert_int_equal(pkss_context_set_int(ctx, PKSS_PARAM_OFFSET_STEPS, combos[i].off), PKSS_OK);
         assert_int_equal(pkss_context_set_int(ctx, PKSS_PARAM_POINTS, combos[i].points), PKSS_OK);
         assert_int_equal(pkss_context_set_int(ctx, PKSS_PARAM_USE_FEATURES, combos[i].features), PKSS_OK);
-        compare_on(ctx, REAL_SCANS[i % N_SCANS], g_seed + 200 + i, NULL);
+        compare_on(ctx, REAL_SCANS[i % N_SCANS], g_seed + 200 + i, 0, NULL);
     }
     pkss_context_destroy(ctx);
 }
@@ -465,7 +485,8 @@ static void test_scores_one_lane_variant(void **state)
     pkss_context *ctx = opencl_context();
     unsetenv("PKSS_CL_VECTOR_WIDTH");
     assert_int_equal(pkss_context_set_int(ctx, PKSS_PARAM_OFFSET_STEPS, 3), PKSS_OK);
-    compare_on(ctx, REAL_SCANS[2], g_seed + 300, NULL);
+    compare_on(ctx, REAL_SCANS[2], g_seed + 300, 0, NULL);
+    compare_on(ctx, REAL_SCANS[0], g_seed + 301, 1, NULL);
     pkss_context_destroy(ctx);
 }
 
@@ -603,6 +624,7 @@ int main(void)
         cmocka_unit_test(test_scores_real_scans_default),
         cmocka_unit_test(test_scores_uniform_rotations),
         cmocka_unit_test(test_scores_other_steps),
+        cmocka_unit_test(test_scores_trimmed_wide_grid),
         cmocka_unit_test(test_scores_one_lane_variant),
         cmocka_unit_test(test_register_reports_device),
         cmocka_unit_test(test_threads),

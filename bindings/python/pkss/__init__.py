@@ -280,7 +280,9 @@ class Candidate:
 
     transform: np.ndarray  #: 4x4 T_target_source
     scale: float  #: s
-    score: float  #: G_K of the search, radians in [0, pi], smaller is better
+    #: G_K of the search, radians in [0, pi], smaller is better (trimmed G_K for
+    #: the second search's candidates: the 80 % best-fitting matched cells)
+    score: float
     score_contour: float  #: G of the contour representatives, radians
     score_feature: float  #: G of the feature representatives, radians
     rms: float  #: RMS of the final mutual pairs, target units
