@@ -548,7 +548,7 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
      * the 54 real pairs did (median time +16 %).
      * The second search scores with the trimmed G (PKSS_WIDE_KEEP,
      * pkss_shared.h): the paper's G ranked the true rotation of a part
-     * 209th-646th of 744 (parasaurolophus, 40 % cut away), as the cells
+     * 210th-647th of 744 (parasaurolophus, 40 % cut away), as the cells
      * that look into the missing part pair the whole's far contour with
      * the part's cut rim. Development seeds: 30-50 % missing 30 -> 32/35,
      * combined 32 -> 33/35, real pairs unchanged, nothing lost. */
