@@ -410,7 +410,8 @@ typedef struct pkss_result {
     double scale;               /* s > 0 */
     double rotation[9];         /* R, row-major, det +1 */
     double translation[3];      /* t */
-    double score;               /* winner's G_K, radians (smaller = better) */
+    double score;               /* winner's G_K, radians (smaller = better;
+                                   trimmed if from the second search) */
     double rms;                 /* winner's RMS, target units */
     double overlap;             /* winner's overlap score in [0, 1] */
     uint32_t winner;            /* index of the winner in candidates[] */

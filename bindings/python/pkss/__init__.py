@@ -309,7 +309,7 @@ class Result:
     scale: float  #: s > 0
     rotation: np.ndarray  #: 3x3 R, det +1
     translation: np.ndarray  #: (3,) t, target units
-    score: float  #: the winner's G_K, radians (smaller is better)
+    score: float  #: the winner's G_K, radians (smaller is better; trimmed if from the second search)
     rms: float  #: the winner's RMS residual, target units
     overlap: float  #: the winner's overlap score in [0, 1]
     winner: int  #: index of the winner in ``candidates``
