@@ -374,16 +374,24 @@ PKSS_INLINE pkss_vf pkss_det3(const pkss_vf *H)
 
 /* G = arccos(clamp(s1 + s2 + d*s3, -1, 1)), d = sign(det H)  (Eq. 6, 7_0;
  * SPEC 4.3). H must already be normalised (both sets unit Frobenius). */
-PKSS_INLINE pkss_vf pkss_measure_from_H_masked(const pkss_vf *H,
-                                               pkss_vi active)
+/* sv receives the singular values and, if not NULL, V the right singular
+ * vectors (pkss_svd3_values_masked), for a caller that also needs the fit. */
+PKSS_INLINE pkss_vf pkss_measure_from_H_svd(const pkss_vf *H, pkss_vi active,
+                                            pkss_vf *sv, pkss_vf *V)
 {
-    pkss_vf sv[3];
-    pkss_svd3_values_masked(H, sv, 0, active);
+    pkss_svd3_values_masked(H, sv, V, active);
     pkss_vf d = PKSS_SEL(pkss_det3(H) < 0.0f, PKSS_VF(-1.0f), PKSS_VF(1.0f));
     pkss_vf tr = sv[0] + sv[1] + d * sv[2];
     tr = PKSS_SEL(tr > 1.0f, PKSS_VF(1.0f), tr);
     tr = PKSS_SEL(tr < -1.0f, PKSS_VF(-1.0f), tr);
     return PKSS_ACOS(tr);
+}
+
+PKSS_INLINE pkss_vf pkss_measure_from_H_masked(const pkss_vf *H,
+                                               pkss_vi active)
+{
+    pkss_vf sv[3];
+    return pkss_measure_from_H_svd(H, active, sv, 0);
 }
 
 PKSS_INLINE pkss_vf pkss_measure_from_H(const pkss_vf *H)
@@ -408,16 +416,17 @@ PKSS_INLINE pkss_vf pkss_measure_from_H(const pkss_vf *H)
 #define PKSS_TRIM_STEPS 6
 
 /* The rotation R (row-major, y ~ R x) that best fits the pairs of the     */
-/* normalised H = sum x y^T: R = V D U^T (Kabsch), with U from B = H V =   */
-/* U Sigma and its third column u1 x u2.                                  */
+/* normalised H = sum x y^T, from its singular values sv and right        */
+/* singular vectors V (pkss_measure_from_H_svd): R = V D U^T (Kabsch),    */
+/* with U from B = H V = U Sigma and its third column u1 x u2.            */
 /* sum_out = the pairs' residual sum |R x - y|^2 = 2 - 2 tr(D Sigma).     */
 /* Lanes whose second singular value vanishes (the pairs lie on a line)   */
 /* are cleared from *ok.                                                  */
-PKSS_INLINE void pkss_fit_rotation(const pkss_vf *H, pkss_vf *R,
+PKSS_INLINE void pkss_fit_rotation(const pkss_vf *H, const pkss_vf *sv,
+                                   const pkss_vf *V, pkss_vf *R,
                                    pkss_vf *sum_out, pkss_vi *ok)
 {
-    pkss_vf sv[3], V[9], U[9];
-    pkss_svd3_values_masked(H, sv, V, *ok);
+    pkss_vf U[9];
     *ok = *ok & (sv[1] > 1.0e-6f * (sv[0] + 1.0e-30f));
     for (int c = 0; c < 2; ++c) {
         pkss_vf inv = 1.0f / PKSS_SEL(*ok, sv[c], PKSS_VF(1.0f));
@@ -591,9 +600,12 @@ PKSS_INLINE pkss_vi pkss_count_kept(PKSS_CONST float *src, int shift,
     return k;
 }
 
-/* G of normalised moments, pi/2 where not valid (also nx or ny = 0). */
+/* G of normalised moments, pi/2 where not valid (also nx or ny = 0); H is
+ * left normalised, with its singular values in sv and, if V is not NULL,
+ * its right singular vectors in V. */
 PKSS_INLINE pkss_vf pkss_measure_moments(pkss_vf *H, pkss_vf nx, pkss_vf ny,
-                                         pkss_vi *valid)
+                                         pkss_vi *valid, pkss_vf *sv,
+                                         pkss_vf *V)
 {
     *valid = *valid & (nx > 0.0f) & (ny > 0.0f);
     if (!PKSS_ANY(*valid))
@@ -601,7 +613,7 @@ PKSS_INLINE pkss_vf pkss_measure_moments(pkss_vf *H, pkss_vf nx, pkss_vf ny,
     pkss_vf inv = 1.0f / (PKSS_SQRT(nx) * PKSS_SQRT(ny));
     for (int i = 0; i < 9; ++i)
         H[i] = H[i] * inv;
-    pkss_vf g = pkss_measure_from_H_masked(H, *valid);
+    pkss_vf g = pkss_measure_from_H_svd(H, *valid, sv, V);
     return PKSS_SEL(*valid, g, PKSS_VF(PKSS_HALF_PI_F));
 }
 
@@ -616,20 +628,22 @@ PKSS_INLINE pkss_vf pkss_score_lanes(PKSS_CONST float *src, int shift,
 {
     pkss_trim f;
     f.on = 0;
-    pkss_vf mx[3], my[3], H[9], nx, ny;
+    pkss_vf mx[3], my[3], H[9], nx, ny, sv[3], V[9];
     pkss_vi k = pkss_pair_means(src, shift, tgt, tgt_stride, n_az, &f, mx, my);
     pkss_vi valid = (k >= PKSS_MIN_MATCHED) &
                     !(PKSS_TO_VF(k) < PKSS_MIN_COVERAGE * PKSS_TO_VF(tgt_occupied));
     if (!PKSS_ANY(valid))
         return PKSS_VF(PKSS_HALF_PI_F);
     pkss_pair_cov(src, shift, tgt, tgt_stride, n_az, &f, mx, my, H, &nx, &ny);
-    pkss_vf g = pkss_measure_moments(H, nx, ny, &valid);
-    if (!(keep < 1.0f) || !PKSS_ANY(valid))
+    int trim = keep < 1.0f;
+    /* the trimmed G needs V as well: one SVD serves both */
+    pkss_vf g = pkss_measure_moments(H, nx, ny, &valid, sv, trim ? V : 0);
+    if (!trim || !PKSS_ANY(valid))
         return g;
 
     pkss_vi ok = valid;
     pkss_vf sum;
-    pkss_fit_rotation(H, f.R, &sum, &ok);
+    pkss_fit_rotation(H, sv, V, f.R, &sum, &ok);
     for (int d = 0; d < 3; ++d) {
         f.mx[d] = mx[d];
         f.my[d] = my[d];
@@ -655,7 +669,7 @@ PKSS_INLINE pkss_vf pkss_score_lanes(PKSS_CONST float *src, int shift,
     pkss_vi k2 = pkss_pair_means(src, shift, tgt, tgt_stride, n_az, &f, mx, my);
     pkss_pair_cov(src, shift, tgt, tgt_stride, n_az, &f, mx, my, H, &nx, &ny);
     ok = ok & (k2 >= PKSS_MIN_MATCHED);
-    pkss_vf g2 = pkss_measure_moments(H, nx, ny, &ok);
+    pkss_vf g2 = pkss_measure_moments(H, nx, ny, &ok, sv, 0);
     return PKSS_SEL(ok, g2, g);
 }
 

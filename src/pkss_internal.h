@@ -252,13 +252,14 @@ pkss_status pkss__search_setup_build(const pkss__params *p,
                                      const pkss_cloud *tgt,
                                      pkss__search_setup *s);
 void pkss__search_setup_free(pkss__search_setup *s);
-/* Replaces the offsets by the wide grid: the same N^3 offsets at twice the
- * step, reaching +-E/2 along each axis (the second pass of register.c). */
 /* Share of the matched pairs the wide search's measure keeps (trimmed G,
  * pkss_shared.h). Development seeds (30-50 % missing, combined, real
  * pairs), against 0.8: 0.7 lost 1 pair (the kitchen scan pair once), 0.9
  * lost 6 (the kitchen pair x3, dragon, parasaurolophus and chef parts). */
 #define PKSS_WIDE_KEEP 0.8f
+/* Replaces the offsets by the wide grid: the same N^3 offsets at twice the
+ * step, reaching +-E/2 along each axis, and the measure by the trimmed G
+ * (keep = PKSS_WIDE_KEEP): the second search of register.c. */
 pkss_status pkss__search_setup_widen(const pkss__params *p,
                                      const pkss_cloud *tgt,
                                      pkss__search_setup *s);
