@@ -19,7 +19,9 @@
 const char *pkss_test_data_path(const char *relative);
 
 /* Loads a data file (any format pkss_io reads) into a malloc'd n x 3 array;
- * calls cmocka skip() with a clear message when the file is absent. */
+ * calls cmocka skip() with a clear message when the file is absent, and
+ * returns NULL with the reader's message printed when it cannot be read
+ * (the caller asserts on the result). */
 double *pkss_test_load(const char *relative, size_t *n);
 
 /* Reads the first 16 numbers of a text file (comment lines starting with

@@ -59,6 +59,7 @@ static void test_opencl_backend_fails(void **state)
     pkss_result_init(&res);
     size_t n;
     double *cloud = pkss_test_load("modelnet40_pkss/airplane_0001_t.ply", &n);
+    assert_non_null(cloud); /* unreadable: reason printed */
     assert_int_equal(pkss_register(ctx, cloud, n, cloud, n, &res), PKSS_ERR_NO_DEVICE);
     assert_int_equal(res.n_candidates, 0);
     free(cloud);
@@ -74,6 +75,7 @@ static void register_with(int backend)
     assert_string_equal(pkss_context_device_name(ctx), "reference (C, CPU)");
     size_t n;
     double *cloud = pkss_test_load("modelnet40_pkss/airplane_0001_t.ply", &n);
+    assert_non_null(cloud); /* unreadable: reason printed */
     pkss_test_rng rng = {pkss_test_seed(PROGRAM, 5)};
     double T[16];
     pkss_test_random_similarity(&rng, pkss_test_diameter(cloud, n), T);

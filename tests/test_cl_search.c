@@ -88,6 +88,7 @@ static void compare_on(pkss_context *ctx, const char *file, uint64_t seed,
 {
     size_t n = 0;
     double *cloud = pkss_test_load(file, &n);
+    assert_non_null(cloud); /* unreadable: reason printed */
     pkss_test_rng rng = {seed};
     size_t ns, nt;
     double *src = random_subset(&rng, cloud, n, 0.7, &ns);
@@ -497,6 +498,7 @@ static void test_register_reports_device(void **state)
     pkss_context *ctx = opencl_context();
     size_t n;
     double *cloud = pkss_test_load(REAL_SCANS[2], &n);
+    assert_non_null(cloud); /* unreadable: reason printed */
     pkss_test_rng rng = {g_seed + 400};
     double T[16];
     pkss_test_random_similarity(&rng, pkss_test_diameter(cloud, n), T);
@@ -571,6 +573,7 @@ static void test_threads(void **state)
     assert_int_equal(pkss_context_set_int(ctx, PKSS_PARAM_OFFSET_STEPS, 3), PKSS_OK);
     size_t n;
     double *cloud = pkss_test_load(REAL_SCANS[0], &n);
+    assert_non_null(cloud); /* unreadable: reason printed */
     search_fixture f;
     assert_int_equal(search_fixture_build(ctx, cloud, n, cloud, n, &f), PKSS_OK);
     size_t total = f.setup.rot.n_rotations * (size_t)f.setup.n_offsets;

@@ -120,6 +120,7 @@ static object_stats object_case(const char *rel, const char *name,
     memset(&st, 0, sizeof st);
     size_t n = 0;
     double *clean = pkss_test_load(rel, &n);
+    assert_non_null(clean); /* unreadable: reason printed */
     double sp = spacing_of(clean, n);
     double lo[3], hi[3];
     for (int d = 0; d < 3; ++d)
@@ -236,6 +237,7 @@ static void lidar_case(const char *rel)
 {
     size_t n = 0;
     double *x = pkss_test_load(rel, &n);
+    assert_non_null(x); /* unreadable: reason printed */
     if (n > MAX_RAW) { /* the pipeline thins huge inputs first (SPEC 2.1) */
         double *y = NULL;
         size_t m = 0;
@@ -433,6 +435,7 @@ static void test_determinism(void **state)
     (void)state;
     size_t n = 0;
     double *x = pkss_test_load("stanford_bunny/reconstruction/bun_zipper_res2.ply", &n);
+    assert_non_null(x); /* unreadable: reason printed */
     pkss_test_rng rng = {g_seed + 9};
     size_t total = n + n / 20;
     x = realloc(x, total * 3 * sizeof(double));
@@ -510,6 +513,7 @@ static void test_shared_graph(void **state)
     (void)state;
     size_t n = 0;
     double *x = pkss_test_load("libpointmatcher/car_cloud400.csv", &n);
+    assert_non_null(x); /* unreadable: reason printed */
     unsigned char *a = malloc(n), *b = malloc(n);
     pkss__knn_graph g = {0, 0, NULL, NULL};
     assert_int_equal(pkss__cull_mutual(x, n, K, a, &g), PKSS_OK);

@@ -82,6 +82,7 @@ static void run_random_cases(const char *file, int n_cases, uint64_t seed,
 {
     size_t n = 0;
     double *cloud = pkss_test_load(file, &n);
+    assert_non_null(cloud); /* unreadable: reason printed */
     double diameter = pkss_test_diameter(cloud, n);
     pkss_context *ctx = make_context();
     pkss_test_rng rng = {seed};
@@ -144,7 +145,9 @@ static void register_pair_gt(const char *src_file, const char *tgt_file,
 {
     size_t ns, nt;
     double *src = pkss_test_load(src_file, &ns);
+    assert_non_null(src); /* unreadable: reason printed */
     double *tgt = pkss_test_load(tgt_file, &nt);
+    assert_non_null(tgt); /* unreadable: reason printed */
     double T[16];
     const char *gt_path = pkss_test_data_path(gt_file);
     assert_non_null(gt_path);
@@ -199,6 +202,7 @@ static void test_prepared_cloud_reuse(void **state)
     (void)state;
     size_t n;
     double *cloud = pkss_test_load("stanford_bunny/reconstruction/bun_zipper_res2.ply", &n);
+    assert_non_null(cloud); /* unreadable: reason printed */
     pkss_context *ctx = make_context();
     pkss_cloud *tpl = NULL;
     assert_int_equal(pkss_cloud_create(ctx, cloud, n, &tpl), PKSS_OK);
@@ -269,6 +273,7 @@ static void register_part(int axis)
 {
     size_t n;
     double *cloud = pkss_test_load("uwa_opencv/parasaurolophus_6700.ply", &n);
+    assert_non_null(cloud); /* unreadable: reason printed */
     size_t top = 0;
     for (size_t i = 1; i < n; ++i)
         if (cloud[3 * i + axis] > cloud[3 * top + axis])

@@ -505,6 +505,7 @@ static void test_real_scan_timing(void **state)
     (void)state;
     size_t n = 0;
     double *x = pkss_test_load("stanford_dragon_stand/converted/dragonStandRight_0.ply", &n);
+    assert_non_null(x); /* unreadable: reason printed */
     size_t k = 12;
     uint32_t *idx = malloc(n * k * sizeof(uint32_t));
     double *d2 = malloc(n * k * sizeof(double));

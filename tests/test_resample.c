@@ -302,8 +302,7 @@ static void fps_spread(const char *rel, size_t m, int assert_ratio)
 {
     size_t n = 0;
     double *x = pkss_test_load(rel, &n);
-    if (!x)
-        return;
+    assert_non_null(x); /* unreadable: reason printed */
     uint32_t *idx = malloc(m * sizeof(uint32_t));
     uint32_t *idx2 = malloc(m * sizeof(uint32_t));
     size_t got = 0, got2 = 0;
@@ -418,6 +417,7 @@ static void test_fps_timing(void **state)
     (void)state;
     size_t n = 0;
     double *x = pkss_test_load("stanford_dragon_stand/converted/dragonStandRight_0.ply", &n);
+    assert_non_null(x); /* unreadable: reason printed */
     double *t30 = NULL;
     size_t n30 = 0;
     assert_int_equal(pkss__thin_voxel(x, n, 30000, 0, &t30, &n30), PKSS_OK);
@@ -437,6 +437,7 @@ static void test_fps_timing(void **state)
     free(x);
 
     x = pkss_test_load("3dmatch/7-scenes-redkitchen/cloud_bin_4.ply", &n);
+    assert_non_null(x); /* unreadable: reason printed */
     double *t200 = NULL;
     size_t n200 = 0;
     assert_int_equal(pkss__thin_voxel(x, n, 200000, 0, &t200, &n200), PKSS_OK);
@@ -514,15 +515,18 @@ static void test_thin_real(void **state)
     (void)state;
     size_t n = 0;
     double *x = pkss_test_load("3dmatch/7-scenes-redkitchen/cloud_bin_4.ply", &n);
+    assert_non_null(x); /* unreadable: reason printed */
     thin_case("3dmatch cloud_bin_4", x, n, 200000);
     thin_case("3dmatch cloud_bin_4", x, n, 20000);
     free(x);
     x = pkss_test_load("kitti_patchworkpp/000000.bin", &n);
+    assert_non_null(x); /* unreadable: reason printed */
     thin_case("kitti 000000", x, n, 200000); /* smaller: unchanged */
     thin_case("kitti 000000", x, n, 50000);
     thin_case("kitti 000000", x, n, 5000);
     free(x);
     x = pkss_test_load("stanford_dragon_stand/converted/dragonStandRight_0.ply", &n);
+    assert_non_null(x); /* unreadable: reason printed */
     thin_case("dragon", x, n, 3000);
     free(x);
 }

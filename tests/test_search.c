@@ -101,6 +101,7 @@ static void test_uniform_set_covers_so3(void **state)
 static pkss_cloud *load_cloud(pkss_context *ctx, const char *file, double **raw, size_t *n)
 {
     *raw = pkss_test_load(file, n);
+    assert_non_null(*raw); /* unreadable: reason printed */
     pkss_cloud *c = NULL;
     pkss_status st = pkss__cloud_build(ctx, *raw, *n, "test", &c);
     if (st != PKSS_OK)
@@ -190,6 +191,7 @@ static void test_unrefined_search_accuracy(void **state)
     assert_int_equal(pkss_context_set_int(ctx, PKSS_PARAM_REFINE, PKSS_SWITCH_OFF), PKSS_OK);
     size_t n;
     double *raw = pkss_test_load("modelnet40_pkss/airplane_0001_t.ply", &n);
+    assert_non_null(raw); /* unreadable: reason printed */
     pkss_test_rng rng = {pkss_test_seed(PROGRAM, 21)};
     double *tgt = malloc(n * 3 * sizeof(double));
     double *src = malloc(n * 3 * sizeof(double));
