@@ -15,10 +15,11 @@
  *     every pair lies inside the floor already (the floor would keep them).
  * The overlap score (coverage, see overlap_with) picks the winner among the
  * refined candidates. Where one cloud shows only a part of the other's
- * surface, register.c first searches the scale that maximises it
- * (pkss__icp_scale_search, on the coarse views): the mutual-pair scale
- * update is nearly stationary there, since the overhang of a too-large
- * partial source has no mutual partners and does not pull it back.
+ * surface, or neither covers the other, register.c first searches the
+ * scale that maximises it (pkss__icp_scale_search, on the coarse views,
+ * then on all points): the mutual-pair scale update is nearly stationary
+ * there, since the overhang of a too-large partial source has no mutual
+ * partners and does not pull it back.
  *
  * A view is a prefix of a cloud's FPS-ordered points: register.c runs a
  * coarse rigid level on every candidate and the full schedule on the few
@@ -601,12 +602,11 @@ static void covered_centroid(const pkss__icp_view *src, const icp_work *w,
         c[d] /= k;
 }
 
-/* Scale search steps (log scale) and the most moves per step. */
-static const double SCALE_STEPS[] = {0.10, 0.03};
+/* The most moves of a scale search. */
 #define SCALE_MOVES 4
 
 pkss_status pkss__icp_scale_search(const pkss__icp_view *src,
-                                   const pkss__icp_view *tgt,
+                                   const pkss__icp_view *tgt, double log_step,
                                    pkss__icp_result *io)
 {
     /* a short rigid settle after each trial scale: from 5h to the floor */
@@ -618,39 +618,37 @@ pkss_status pkss__icp_scale_search(const pkss__icp_view *src,
     pkss__icp_result best = *io;
     overlap_with(src, tgt, &best.pose, &w, &best.overlap, &best.rms, best.cover);
     int w_at_best = 1; /* w holds the coverage answers at best.pose */
-    for (size_t k = 0; k < sizeof SCALE_STEPS / sizeof *SCALE_STEPS; ++k) {
-        double f = exp(SCALE_STEPS[k]);
-        int dir = 0; /* direction that last improved; 0 = try both */
-        for (int move = 0; move < SCALE_MOVES; ++move) {
-            pkss__icp_result next = best;
-            int next_dir = 0;
-            double c[3];
-            if (!w_at_best)
-                correspond(src, tgt, &best.pose,
-                           coverage_gate(src, tgt, &best.pose), w.fwd,
-                           w.fwd_d2, w.bwd, w.bwd_d2);
-            w_at_best = 1;
-            covered_centroid(src, &w, c);
-            for (int sgn = -1; sgn <= 1; sgn += 2) {
-                if (dir != 0 && sgn != dir)
-                    continue;
-                pkss__pose trial = best.pose;
-                rescale_about(&trial, c, sgn > 0 ? f : 1.0 / f);
-                pkss__icp_result r;
-                st = pkss__icp_run(src, tgt, &settle, &trial, NULL, 0, &r);
-                if (st != PKSS_OK)
-                    goto out;
-                if (r.overlap > next.overlap) {
-                    next = r;
-                    next_dir = sgn;
-                }
+    double f = exp(log_step);
+    int dir = 0; /* direction that last improved; 0 = try both */
+    for (int move = 0; move < SCALE_MOVES; ++move) {
+        pkss__icp_result next = best;
+        int next_dir = 0;
+        double c[3];
+        if (!w_at_best)
+            correspond(src, tgt, &best.pose,
+                       coverage_gate(src, tgt, &best.pose), w.fwd,
+                       w.fwd_d2, w.bwd, w.bwd_d2);
+        w_at_best = 1;
+        covered_centroid(src, &w, c);
+        for (int sgn = -1; sgn <= 1; sgn += 2) {
+            if (dir != 0 && sgn != dir)
+                continue;
+            pkss__pose trial = best.pose;
+            rescale_about(&trial, c, sgn > 0 ? f : 1.0 / f);
+            pkss__icp_result r;
+            st = pkss__icp_run(src, tgt, &settle, &trial, NULL, 0, &r);
+            if (st != PKSS_OK)
+                goto out;
+            if (r.overlap > next.overlap) {
+                next = r;
+                next_dir = sgn;
             }
-            if (next_dir == 0)
-                break;
-            best = next;
-            dir = next_dir;
-            w_at_best = 0;
         }
+        if (next_dir == 0)
+            break;
+        best = next;
+        dir = next_dir;
+        w_at_best = 0;
     }
     *io = best;
 out:

@@ -351,10 +351,11 @@ pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
                           const pkss__pose *init, pkss__icp_basins *basins,
                           int id, pkss__icp_result *out);
 /* The scale that maximises the overlap score, by a pattern search in log
- * scale with a short rigid settle at each trial; io holds the start pose
- * on entry and the best pose found (with its overlap and RMS) on exit. */
+ * scale (steps of log_step, at most 4 moves) with a short rigid settle at
+ * each trial; io holds the start pose on entry and the best pose found
+ * (with its overlap, RMS and coverages) on exit. */
 pkss_status pkss__icp_scale_search(const pkss__icp_view *src,
-                                   const pkss__icp_view *tgt,
+                                   const pkss__icp_view *tgt, double log_step,
                                    pkss__icp_result *io);
 /* Overlap score (coverage, icp.c) and RMS of the mutual pairs at pose. */
 pkss_status pkss__icp_overlap(const pkss__icp_view *src,

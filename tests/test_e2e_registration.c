@@ -257,6 +257,8 @@ static double dist2_to(const double *x, const double *p)
     return d;
 }
 
+#define PARASAUROLOPHUS "uwa_opencv/parasaurolophus_6700.ply"
+
 static const double *cut_from; /* the cut's centre, for by_distance */
 
 static int by_distance(const void *a, const void *b)
@@ -265,14 +267,14 @@ static int by_distance(const void *a, const void *b)
     return (da > db) - (da < db);
 }
 
-/* The UWA parasaurolophus with the 40 % of its points nearest its extreme
+/* The object in `file` with the 40 % of its points nearest its extreme
  * point along `axis` (max) cut away, registered onto the whole under a
- * fixed similarity: strict success, and the winner comes from the second
- * search, on the wide grid. */
-static void register_part(int axis)
+ * fixed similarity: strict success and, with `wide`, the winner comes from
+ * the second search, on the wide grid. */
+static void register_part(const char *file, const char *name, int axis, int wide)
 {
     size_t n;
-    double *cloud = pkss_test_load("uwa_opencv/parasaurolophus_6700.ply", &n);
+    double *cloud = pkss_test_load(file, &n);
     assert_non_null(cloud); /* unreadable: reason printed */
     size_t top = 0;
     for (size_t i = 1; i < n; ++i)
@@ -304,13 +306,12 @@ static void register_part(int axis)
     pkss_test_apply(T, cloud, n, target);
     pkss_context *ctx = make_context();
     pkss_result res;
-    pkss_test_err e = register_and_score(ctx, part, n_part, target, n, T, &res,
-                                         "parasaurolophus part");
+    pkss_test_err e = register_and_score(ctx, part, n_part, target, n, T, &res, name);
     const pkss_candidate *w = &res.candidates[res.winner];
-    printf("  parasaurolophus, 40 %% nearest max %c cut away: rot %.3f deg, scale %.3f %%, "
+    printf("  %s, 40 %% nearest max %c cut away: rot %.3f deg, scale %.3f %%, "
            "trans %.3f %% of diameter, overlap %.3f, winner's offset %u of %u "
            "(+%u: wide grid), %llu evaluations\n",
-           "xyz"[axis], e.rot_deg, 100 * e.scale_rel, 100 * e.trans / (1.7 * d), res.overlap,
+           name, "xyz"[axis], e.rot_deg, 100 * e.scale_rel, 100 * e.trans / (1.7 * d), res.overlap,
            w->offset_index, res.n_offsets, res.n_offsets,
            (unsigned long long)res.n_evaluations);
     fflush(stdout);
@@ -318,11 +319,12 @@ static void register_part(int axis)
     assert_true(e.rot_deg < 5.0);
     assert_true(e.scale_rel < 0.02);
     assert_true(e.trans / (1.7 * d) < 0.02);
-    /* found by the second search, on the wide grid */
-    assert_int_equal(res.n_evaluations,
-                     2 * (uint64_t)res.n_rotations * res.n_offsets);
-    assert_true(w->offset_index >= res.n_offsets);
-    assert_true(w->offset_index < 2 * res.n_offsets);
+    if (wide) { /* found by the second search, on the wide grid */
+        assert_int_equal(res.n_evaluations,
+                         2 * (uint64_t)res.n_rotations * res.n_offsets);
+        assert_true(w->offset_index >= res.n_offsets);
+        assert_true(w->offset_index < 2 * res.n_offsets);
+    }
     pkss_context_destroy(ctx);
     free(target);
     free(part);
@@ -336,7 +338,7 @@ static void register_part(int axis)
 static void test_part_beyond_offset_grid(void **state)
 {
     (void)state;
-    register_part(1);
+    register_part(PARASAUROLOPHUS, "parasaurolophus", 1, 1);
 }
 
 /* The cut around the max-x point: the wide grid alone is not enough here.
@@ -345,7 +347,18 @@ static void test_part_beyond_offset_grid(void **state)
 static void test_part_needs_trimmed_measure(void **state)
 {
     (void)state;
-    register_part(0);
+    register_part(PARASAUROLOPHUS, "parasaurolophus", 0, 1);
+}
+
+/* A part of a box (one RGB-D view of a milk carton) 20-30 % too large at
+ * the pre-shape scale ratio overhangs the whole on all sides and leaves
+ * both coverages alike, so the asymmetry does not call for the scale
+ * search; the search now runs wherever neither cloud is covered
+ * (register.c, PKSS_PART_COVERED). Before: 3.9 degrees, scale 22.8 % off. */
+static void test_part_too_large_at_preshape_scale(void **state)
+{
+    (void)state;
+    register_part("pcl/converted/milk.ply", "milk carton", 1, 0);
 }
 
 int main(void)
@@ -357,6 +370,7 @@ int main(void)
         cmocka_unit_test(test_random_similarity_real_scans),
         cmocka_unit_test(test_part_beyond_offset_grid),
         cmocka_unit_test(test_part_needs_trimmed_measure),
+        cmocka_unit_test(test_part_too_large_at_preshape_scale),
     };
     return cmocka_run_group_tests_name(PROGRAM, tests, NULL, NULL);
 }
