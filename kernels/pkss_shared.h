@@ -373,8 +373,8 @@ PKSS_INLINE pkss_vf pkss_det3(const pkss_vf *H)
 }
 
 /* G = arccos(clamp(s1 + s2 + d*s3, -1, 1)), d = sign(det H)  (Eq. 6, 7_0;
- * SPEC 4.3). H must already be normalised (both sets unit Frobenius). */
-/* sv receives the singular values and, if not NULL, V the right singular
+ * SPEC 4.3). H must already be normalised (both sets unit Frobenius). sv
+ * receives the singular values and, if not NULL, V the right singular
  * vectors (pkss_svd3_values_masked), for a caller that also needs the fit. */
 PKSS_INLINE pkss_vf pkss_measure_from_H_svd(const pkss_vf *H, pkss_vi active,
                                             pkss_vf *sv, pkss_vf *V)
@@ -387,16 +387,10 @@ PKSS_INLINE pkss_vf pkss_measure_from_H_svd(const pkss_vf *H, pkss_vi active,
     return PKSS_ACOS(tr);
 }
 
-PKSS_INLINE pkss_vf pkss_measure_from_H_masked(const pkss_vf *H,
-                                               pkss_vi active)
-{
-    pkss_vf sv[3];
-    return pkss_measure_from_H_svd(H, active, sv, 0);
-}
-
 PKSS_INLINE pkss_vf pkss_measure_from_H(const pkss_vf *H)
 {
-    return pkss_measure_from_H_masked(H, PKSS_TRUE);
+    pkss_vf sv[3];
+    return pkss_measure_from_H_svd(H, PKSS_TRUE, sv, 0);
 }
 
 /* ---------------------------------------------------------------------- */

@@ -5,8 +5,9 @@
  * pairs) within SCORE_TOL and identical top-k lists, on real scans from
  * ../shared/data, for the Euler set, the uniform set, non-default
  * cell/rotation/offset steps, features off, the wide second search with the
- * trimmed measure, and the one-lane (GPU) kernel variant; device listing and selection; error reporting. Skips with a
- * reason when there is no OpenCL device.
+ * trimmed measure, and the one-lane (GPU) kernel variant; device listing
+ * and selection; error reporting. Skips with a reason when there is no
+ * OpenCL device.
  */
 #define _POSIX_C_SOURCE 200809L
 #include "support.h"
