@@ -427,6 +427,13 @@ typedef struct pkss_result {
     pkss_timings timings;
     int backend;                /* pkss_backend actually used */
     char device[128];           /* device name (PKSS_NAME_SIZE) */
+    /* Appended (a caller built against an older pkss.h sets a smaller
+     * struct_size and does not receive them): */
+    double fit;                 /* winner's fit in [0, 1]: the overlap score
+                                   within 1 spacing instead of 2, which
+                                   picks the winner among the refined
+                                   candidates (fit <= overlap) */
+    double candidate_fit[32];   /* each candidate's fit, as candidates[] */
 } pkss_result;
 
 /** pkss_result_init() : zeroes *result and sets struct_size. */

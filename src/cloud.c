@@ -18,6 +18,7 @@ void pkss_cloud_destroy(pkss_cloud *cloud)
         return;
     pkss__free(cloud->pre);
     pkss__free(cloud->feat);
+    pkss__free(cloud->normal);
     pkss__kdtree_free(cloud->tree);
     pkss__kdtree_free(cloud->tree_coarse);
     pkss__free(cloud);
@@ -177,7 +178,8 @@ static int cmp_double(const void *a, const void *b)
 
 /* Sec. 4: D_pca(p) = distance of p to the least-squares plane of its 12
  * nearest neighbours (self excluded); P' = the top feature_frac by D_pca.
- * Also returns the median nearest-neighbour spacing. */
+ * Also keeps that plane's normal at every point (the refinement's
+ * point-to-plane stage, icp.c) and the median nearest-neighbour spacing. */
 static pkss_status features_and_spacing(pkss_cloud *c, double frac)
 {
     size_t m = c->m, k = m - 1 < PKSS_KNN_K ? m - 1 : PKSS_KNN_K;
@@ -185,7 +187,8 @@ static pkss_status features_and_spacing(pkss_cloud *c, double frac)
     double *d2 = pkss__malloc(m * k * sizeof(double));
     dsort *ds = pkss__malloc(m * sizeof(dsort));
     double *nn = pkss__malloc(m * sizeof(double));
-    if (!idx || !d2 || !ds || !nn) {
+    c->normal = pkss__malloc(3 * m * sizeof(double));
+    if (!idx || !d2 || !ds || !nn || !c->normal) {
         pkss__free(idx); pkss__free(d2); pkss__free(ds); pkss__free(nn);
         return PKSS_ERR_OUT_OF_MEMORY;
     }
@@ -203,6 +206,8 @@ static pkss_status features_and_spacing(pkss_cloud *c, double frac)
                       (p[2] - mean[2]) * V[8];
         ds[i].d = fabs(dist);
         ds[i].i = (uint32_t)i;
+        for (int d = 0; d < 3; ++d)
+            c->normal[3 * i + d] = V[3 * d + 2];
     }
     qsort(nn, m, sizeof(double), cmp_double);
     c->spacing = nn[m / 2];

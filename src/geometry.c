@@ -223,3 +223,46 @@ void pkss__procrustes_rotation(const double *H, double *R)
     pkss__mat3_mul(V, D, VD);
     pkss__mat3_mul(VD, Ut, R);
 }
+
+void pkss__rotation_exp(const double *w, double *R)
+{
+    double th = sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+    /* R = I + a [w]x + b [w]x^2, with the series of a and b near 0 */
+    double a = th > 1e-6 ? sin(th) / th : 1.0 - th * th / 6.0;
+    double b = th > 1e-6 ? (1.0 - cos(th)) / (th * th) : 0.5 - th * th / 24.0;
+    double K[9] = {0, -w[2], w[1], w[2], 0, -w[0], -w[1], w[0], 0}, K2[9];
+    pkss__mat3_mul(K, K, K2);
+    for (int i = 0; i < 9; ++i)
+        R[i] = (i % 4 == 0 ? 1.0 : 0.0) + a * K[i] + b * K2[i];
+}
+
+int pkss__solve_spd(double *A, double *b, int n)
+{
+    /* Cholesky A = L L^T in place (lower triangle), then two substitutions */
+    for (int j = 0; j < n; ++j) {
+        double d = A[n * j + j];
+        for (int k = 0; k < j; ++k)
+            d -= A[n * j + k] * A[n * j + k];
+        if (!(d > 0.0))
+            return 0;
+        d = sqrt(d);
+        A[n * j + j] = d;
+        for (int i = j + 1; i < n; ++i) {
+            double v = A[n * i + j];
+            for (int k = 0; k < j; ++k)
+                v -= A[n * i + k] * A[n * j + k];
+            A[n * i + j] = v / d;
+        }
+    }
+    for (int i = 0; i < n; ++i) {
+        for (int k = 0; k < i; ++k)
+            b[i] -= A[n * i + k] * b[k];
+        b[i] /= A[n * i + i];
+    }
+    for (int i = n - 1; i >= 0; --i) {
+        for (int k = i + 1; k < n; ++k)
+            b[i] -= A[n * k + i] * b[k];
+        b[i] /= A[n * i + i];
+    }
+    return 1;
+}

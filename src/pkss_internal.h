@@ -168,6 +168,12 @@ void pkss__eig_sym3(const double *S, double *w, double *V);
 void pkss__svd3(const double *H, double *U, double *s, double *V);
 /* Best rotation R (det +1) maximising tr(R H), H = sum x y^T: R = V D U^T. */
 void pkss__procrustes_rotation(const double *H, double *R);
+/* The rotation by |w| radians about w (Rodrigues). */
+void pkss__rotation_exp(const double *w, double *R);
+/* Solves A x = b for a symmetric positive definite n x n A (row-major;
+ * overwritten by its Cholesky factor); x replaces b. Returns 0, leaving b
+ * undefined, when A is not positive definite. */
+int pkss__solve_spd(double *A, double *b, int n);
 
 /* --------------------------------------------------------------- clouds */
 struct pkss_cloud {
@@ -178,6 +184,7 @@ struct pkss_cloud {
     double sigma;         /* RMS radius of the resampled cloud (Eq. 2) */
     size_t n_feat;
     uint32_t *feat;       /* indices into pre of feature points */
+    double *normal;       /* m x 3 unit normals of the local PCA planes */
     double axes[9];       /* PCA axes as columns, right-handed, sign fixed */
     double half_extent[3];/* half-extent along each axis (pre-shape units) */
     double spacing;       /* median NN spacing (pre-shape units) */
@@ -293,6 +300,7 @@ typedef struct pkss__icp_view {
     const double *pts;
     size_t m;
     const pkss__kdtree *tree;
+    const double *normal; /* unit normal at each point (cloud.c) */
     double spacing;  /* median NN spacing h of this view */
 } pkss__icp_view;
 
@@ -318,6 +326,8 @@ typedef struct pkss__icp_schedule {
                                  projected to end, below this overlap */
     double scale_min_overlap; /* stop a scale stage projected to end
                                  below this overlap */
+    int plane_iters;     /* most point-to-plane iterations after the scale
+                            stage (0: none) */
 } pkss__icp_schedule;
 
 typedef struct pkss__icp_result {
@@ -325,6 +335,10 @@ typedef struct pkss__icp_result {
     double rms;      /* of the final mutual pairs, pre-shape template units */
     double overlap;  /* overlap score on the views used (icp.c) */
     double cover[2]; /* its parts: shares of source, template covered */
+    double fit;      /* the overlap within 1 spacing (icp.c, ICP_FIT_DIST) */
+    double overlap_unpolished; /* the overlap before the point-to-plane
+                                  stage (= overlap without one): the bar
+                                  that other runs' stages are held to */
     int iterations;
     int abandoned;   /* stopped short of a bar (rigid_min_overlap,
                         scale_min_overlap) */
@@ -357,11 +371,12 @@ pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
 pkss_status pkss__icp_scale_search(const pkss__icp_view *src,
                                    const pkss__icp_view *tgt, double log_step,
                                    pkss__icp_result *io);
-/* Overlap score (coverage, icp.c) and RMS of the mutual pairs at pose. */
+/* Overlap score (coverage, icp.c), RMS of the mutual pairs and the fit
+ * (the overlap within 1 spacing; fit may be NULL) at pose. */
 pkss_status pkss__icp_overlap(const pkss__icp_view *src,
                               const pkss__icp_view *tgt,
                               const pkss__pose *pose, double *overlap,
-                              double *rms);
+                              double *rms, double *fit);
 
 /* ------------------------------------------------------------ OpenCL */
 /* evaluate_cl.c; all return PKSS_ERR_UNSUPPORTED when built without it. */

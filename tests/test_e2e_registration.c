@@ -258,6 +258,7 @@ static double dist2_to(const double *x, const double *p)
 }
 
 #define PARASAUROLOPHUS "uwa_opencv/parasaurolophus_6700.ply"
+#define MILK "pcl/converted/milk.ply"
 
 static const double *cut_from; /* the cut's centre, for by_distance */
 
@@ -268,17 +269,19 @@ static int by_distance(const void *a, const void *b)
 }
 
 /* The object in `file` with the 40 % of its points nearest its extreme
- * point along `axis` (max) cut away, registered onto the whole under a
- * fixed similarity: strict success and, with `wide`, the winner comes from
- * the second search, on the wide grid. */
-static void register_part(const char *file, const char *name, int axis, int wide)
+ * point along `axis` (max, or min with from_min) cut away, registered onto
+ * the whole under a fixed similarity: strict success and, with `wide`, the
+ * winner comes from the second search, on the wide grid. */
+static void register_part(const char *file, const char *name, int axis,
+                          int from_min, int wide)
 {
     size_t n;
     double *cloud = pkss_test_load(file, &n);
     assert_non_null(cloud); /* unreadable: reason printed */
     size_t top = 0;
+    const double sign = from_min ? -1.0 : 1.0;
     for (size_t i = 1; i < n; ++i)
-        if (cloud[3 * i + axis] > cloud[3 * top + axis])
+        if (sign * cloud[3 * i + axis] > sign * cloud[3 * top + axis])
             top = i;
     double from[3] = {cloud[3 * top], cloud[3 * top + 1], cloud[3 * top + 2]};
     double *part = malloc(n * 3 * sizeof(double));
@@ -308,10 +311,10 @@ static void register_part(const char *file, const char *name, int axis, int wide
     pkss_result res;
     pkss_test_err e = register_and_score(ctx, part, n_part, target, n, T, &res, name);
     const pkss_candidate *w = &res.candidates[res.winner];
-    printf("  %s, 40 %% nearest max %c cut away: rot %.3f deg, scale %.3f %%, "
+    printf("  %s, 40 %% nearest %s %c cut away: rot %.3f deg, scale %.3f %%, "
            "trans %.3f %% of diameter, overlap %.3f, winner's offset %u of %u "
            "(+%u: wide grid), %llu evaluations\n",
-           name, "xyz"[axis], e.rot_deg, 100 * e.scale_rel, 100 * e.trans / (1.7 * d), res.overlap,
+           name, from_min ? "min" : "max", "xyz"[axis], e.rot_deg, 100 * e.scale_rel, 100 * e.trans / (1.7 * d), res.overlap,
            w->offset_index, res.n_offsets, res.n_offsets,
            (unsigned long long)res.n_evaluations);
     fflush(stdout);
@@ -338,7 +341,7 @@ static void register_part(const char *file, const char *name, int axis, int wide
 static void test_part_beyond_offset_grid(void **state)
 {
     (void)state;
-    register_part(PARASAUROLOPHUS, "parasaurolophus", 1, 1);
+    register_part(PARASAUROLOPHUS, "parasaurolophus", 1, 0, 1);
 }
 
 /* The cut around the max-x point: the wide grid alone is not enough here.
@@ -347,7 +350,7 @@ static void test_part_beyond_offset_grid(void **state)
 static void test_part_needs_trimmed_measure(void **state)
 {
     (void)state;
-    register_part(PARASAUROLOPHUS, "parasaurolophus", 0, 1);
+    register_part(PARASAUROLOPHUS, "parasaurolophus", 0, 0, 1);
 }
 
 /* A part of a box (one RGB-D view of a milk carton) 20-30 % too large at
@@ -358,7 +361,19 @@ static void test_part_needs_trimmed_measure(void **state)
 static void test_part_too_large_at_preshape_scale(void **state)
 {
     (void)state;
-    register_part("pcl/converted/milk.ply", "milk carton", 1, 0);
+    register_part(MILK, "milk carton", 1, 0, 0);
+}
+
+/* A part of a box whose pose point-to-point pairs cannot pin down: on the
+ * carton's flat faces they pull only through the rims, and both runs near
+ * the truth stopped 4.5-6.6 % off in scale and 5.5-8.9 % of the diameter
+ * along the box, where a pose turned 180 degrees outscored them (overlap
+ * 0.81; at afaab15 it won, 179.6 degrees and 6.1 % off in scale). The
+ * point-to-plane stage (icp.c) takes them to the truth (overlap 0.82). */
+static void test_box_part_slides_on_its_faces(void **state)
+{
+    (void)state;
+    register_part(MILK, "milk carton", 1, 1, 0);
 }
 
 int main(void)
@@ -371,6 +386,7 @@ int main(void)
         cmocka_unit_test(test_part_beyond_offset_grid),
         cmocka_unit_test(test_part_needs_trimmed_measure),
         cmocka_unit_test(test_part_too_large_at_preshape_scale),
+        cmocka_unit_test(test_box_part_slides_on_its_faces),
     };
     return cmocka_run_group_tests_name(PROGRAM, tests, NULL, NULL);
 }

@@ -3,7 +3,9 @@
  * the C reference and the OpenCL kernels) and the double SVD of
  * src/geometry.c against LAPACKE_dgesvd on 10^5+ random and near-degenerate
  * matrices: repeated, zero, rank-1/2 singular values and reflections;
- * and the trimmed measure of the wide search on pairs with outliers.
+ * the trimmed measure of the wide search on pairs with outliers; and the
+ * other small dense solvers of geometry.c (the SPD solve against
+ * LAPACKE_dposv, the rotation of a rotation vector).
  */
 #include "support.h"
 
@@ -322,6 +324,85 @@ static void test_trimmed_measure(void **state)
                        PKSS_HALF_PI_F, 0.0);
 }
 
+/* pkss__solve_spd (the point-to-plane stage's 7 x 7 normal equations)
+ * against LAPACKE_dposv on random SPD systems, conditioned from 1 to 1e10;
+ * a matrix with a zero or negative pivot is refused. */
+static void test_spd_solve(void **state)
+{
+    (void)state;
+    pkss_test_rng rng = {pkss_test_seed(PROGRAM, 5)};
+    double worst = 0.0;
+    for (int trial = 0; trial < 2000; ++trial) {
+        int n = 1 + trial % 7;
+        double B[49], A[49], A2[49], b[7], x[7];
+        for (int i = 0; i < n * n; ++i)
+            B[i] = pkss_test_normal(&rng);
+        /* A = B B^T + eps I, eps from 1 down to 1e-10 */
+        double eps = pow(10.0, -10.0 * pkss_test_uniform(&rng));
+        for (int i = 0; i < n; ++i)
+            for (int j = 0; j < n; ++j) {
+                double v = i == j ? eps : 0.0;
+                for (int k = 0; k < n; ++k)
+                    v += B[n * i + k] * B[n * j + k];
+                A[n * i + j] = A2[n * i + j] = v;
+            }
+        for (int i = 0; i < n; ++i)
+            b[i] = x[i] = pkss_test_normal(&rng);
+        assert_int_equal(pkss__solve_spd(A, x, n), 1);
+        assert_int_equal(LAPACKE_dposv(LAPACK_ROW_MAJOR, 'L', n, 1, A2, n, b, 1), 0);
+        double nx = 0.0, dx = 0.0;
+        for (int i = 0; i < n; ++i) {
+            nx = fmax(nx, fabs(b[i]));
+            dx = fmax(dx, fabs(x[i] - b[i]));
+        }
+        /* both are backward stable: the difference grows with cond(A) */
+        worst = fmax(worst, dx / nx * eps);
+    }
+    printf("  SPD solve: max |x - x_lapack| / |x| times eps (cond(A) ~ 1 / eps) = %.3g\n", worst);
+    assert_true(worst < 1e-11);
+    double indefinite[4] = {1, 2, 2, 1}, zero[4] = {0, 0, 0, 1}, r[2] = {1, 1};
+    assert_int_equal(pkss__solve_spd(indefinite, r, 2), 0);
+    assert_int_equal(pkss__solve_spd(zero, r, 2), 0);
+}
+
+/* pkss__rotation_exp: a rotation (orthonormal, det +1) that keeps its axis
+ * and turns by |w|, down to |w| = 1e-9 (the series branch) and up to pi. */
+static void test_rotation_exp(void **state)
+{
+    (void)state;
+    pkss_test_rng rng = {pkss_test_seed(PROGRAM, 6)};
+    for (int trial = 0; trial < 1000; ++trial) {
+        double w[3], R[9], Rw[3], Id[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+        double th = trial < 100 ? pow(10.0, -9.0 + 8.0 * pkss_test_uniform(&rng))
+                                : 3.14159265358979 * pkss_test_uniform(&rng);
+        double nv = 0.0;
+        for (int d = 0; d < 3; ++d) {
+            w[d] = pkss_test_normal(&rng);
+            nv += w[d] * w[d];
+        }
+        for (int d = 0; d < 3; ++d)
+            w[d] *= th / sqrt(nv);
+        pkss__rotation_exp(w, R);
+        double RtR[9], Rt[9];
+        pkss__mat3_transpose(R, Rt);
+        pkss__mat3_mul(Rt, R, RtR);
+        for (int i = 0; i < 9; ++i)
+            assert_float_equal(RtR[i], Id[i], 1e-12);
+        assert_float_equal(det3(R), 1.0, 1e-12);
+        pkss__mat3_apply(R, w, Rw);
+        for (int d = 0; d < 3; ++d)
+            assert_float_equal(Rw[d], w[d], 1e-12);
+        assert_float_equal(pkss__rotation_angle(R, Id), th, 1e-7);
+        if (th < 1e-3) {
+            /* first order: R x = x + w x x, to within th^2 */
+            double x[3] = {1, 0, 0}, Rx[3];
+            pkss__mat3_apply(R, x, Rx);
+            assert_float_equal(Rx[1], w[2], th * th + 1e-15);
+            assert_float_equal(Rx[2], -w[1], th * th + 1e-15);
+        }
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -329,6 +410,8 @@ int main(void)
         cmocka_unit_test(test_near_degenerate_matrices),
         cmocka_unit_test(test_double_svd_and_procrustes),
         cmocka_unit_test(test_trimmed_measure),
+        cmocka_unit_test(test_spd_solve),
+        cmocka_unit_test(test_rotation_exp),
     };
     return cmocka_run_group_tests_name(PROGRAM, tests, NULL, NULL);
 }

@@ -856,6 +856,8 @@ static int write_json(const char *path, const run_info *ri,
         json_num(f, r->rms);
         fputs(",\n  \"overlap\": ", f);
         json_num(f, r->overlap);
+        fputs(",\n  \"fit\": ", f);
+        json_num(f, r->fit);
         fprintf(f, ",\n  \"winner\": %u,\n  \"n_candidates\": %u,\n"
                    "  \"candidates\": [",
                 (unsigned)r->winner, (unsigned)r->n_candidates);
@@ -876,6 +878,8 @@ static int write_json(const char *path, const run_info *ri,
             json_num(f, c->rms);
             fputs(", \"overlap\": ", f);
             json_num(f, c->overlap);
+            fputs(", \"fit\": ", f);
+            json_num(f, r->candidate_fit[i]);
             fprintf(f, ", \"rotation_index\": %u, \"offset_index\": %u}",
                     (unsigned)c->rotation_index, (unsigned)c->offset_index);
         }
@@ -1015,10 +1019,10 @@ static void print_verbose(const run_info *ri, const pkss_result *r)
         int on_wide = c->offset_index >= r->n_offsets;
         fprintf(stderr,
                 "  %c%2u score %.5f (contour %.5f, feature %.5f) scale "
-                "%.6g rms %.6g overlap %.4f rot#%u %s#%u\n",
+                "%.6g rms %.6g overlap %.4f fit %.4f rot#%u %s#%u\n",
                 i == r->winner ? '*' : ' ', (unsigned)i, c->score,
                 c->score_contour, c->score_feature, c->scale, c->rms,
-                c->overlap, (unsigned)c->rotation_index,
+                c->overlap, r->candidate_fit[i], (unsigned)c->rotation_index,
                 on_wide ? "wide" : "off",
                 (unsigned)(c->offset_index - (on_wide ? r->n_offsets : 0)));
     }

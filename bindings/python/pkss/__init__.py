@@ -286,18 +286,22 @@ class Candidate:
     score_contour: float  #: G of the contour representatives, radians
     score_feature: float  #: G of the feature representatives, radians
     rms: float  #: RMS of the final mutual pairs, target units
-    overlap: float  #: overlap score in [0, 1]
+    overlap: float  #: overlap score in [0, 1]: sqrt(f_s f_t), shares within 2 spacings
     rotation_index: int  #: index into the rotation candidate set
     offset_index: int  #: index into the offset set; ``n_offsets + i``: wide grid (second search)
+    #: the overlap score within 1 spacing (<= overlap); the winner is the
+    #: refined candidate with the highest fit
+    fit: float
 
     def apply(self, points: ArrayLike) -> np.ndarray:
         """Map (N, 3) source points into the target frame with this pose."""
         return _transform_points(self.transform, points)
 
     def __repr__(self) -> str:
-        return ("Candidate(scale=%.6g, score=%.4g, rms=%.4g, overlap=%.3f, rotation_index=%d, "
-                "offset_index=%d)" % (self.scale, self.score, self.rms, self.overlap,
-                                      self.rotation_index, self.offset_index))
+        return ("Candidate(scale=%.6g, score=%.4g, rms=%.4g, overlap=%.3f, fit=%.3f, "
+                "rotation_index=%d, offset_index=%d)"
+                % (self.scale, self.score, self.rms, self.overlap, self.fit,
+                   self.rotation_index, self.offset_index))
 
 
 @dataclass(frozen=True, repr=False)
@@ -323,6 +327,7 @@ class Result:
     counts: PairCounts  #: points kept per pre-processing step
     backend: str  #: 'reference' or 'opencl', the backend actually used
     device: str  #: the device name
+    fit: float  #: the winner's overlap score within 1 spacing, by which it won
 
     def apply(self, points: ArrayLike) -> np.ndarray:
         """Map (N, 3) source points into the target frame: ``s R x + t``."""
@@ -331,9 +336,9 @@ class Result:
     def __repr__(self) -> str:
         axis_angle = np.degrees(np.arccos(np.clip((np.trace(self.rotation) - 1) / 2, -1, 1)))
         return ("Result(scale=%.6g, rotation=%.3f deg, translation=%s, score=%.4g rad, "
-                "rms=%.4g, overlap=%.3f, backend=%r, device=%r, total=%.3f s)"
+                "rms=%.4g, overlap=%.3f, fit=%.3f, backend=%r, device=%r, total=%.3f s)"
                 % (self.scale, axis_angle, np.array2string(self.translation, precision=4),
-                   self.score, self.rms, self.overlap, self.backend, self.device,
+                   self.score, self.rms, self.overlap, self.fit, self.backend, self.device,
                    self.timings.total))
 
 
@@ -356,7 +361,8 @@ def _result(r: Any) -> Result:
         c = r.candidates[i]
         cands.append(Candidate(_matrix(c.T_target_source, (4, 4)), c.scale, c.score,
                                c.score_contour, c.score_feature, c.rms, c.overlap,
-                               int(c.rotation_index), int(c.offset_index)))
+                               int(c.rotation_index), int(c.offset_index),
+                               float(r.candidate_fit[i])))
     t = r.timings
     return Result(
         transform=_matrix(r.T_target_source, (4, 4)), scale=r.scale,
@@ -366,7 +372,8 @@ def _result(r: Any) -> Result:
         n_evaluations=int(r.n_evaluations),
         timings=Timings(t.validate, t.preprocess, t.search, t.refine, t.total),
         counts=PairCounts(_counts(r.source_counts), _counts(r.target_counts)),
-        backend=_BACKEND_NAMES.get(r.backend, str(r.backend)), device=_str(r.device))
+        backend=_BACKEND_NAMES.get(r.backend, str(r.backend)), device=_str(r.device),
+        fit=r.fit)
 
 
 def _new_result() -> Any:

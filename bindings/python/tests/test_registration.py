@@ -50,6 +50,10 @@ def test_airplane_exact_pair():
     assert 0 <= res.winner < len(res.candidates) <= 10
     assert res.candidates[res.winner].score == res.score
     assert res.overlap > 0.9 and res.rms >= 0
+    # the fit (overlap within 1 spacing) picked the winner and cannot exceed
+    # the overlap (within 2); an exact copy lies on itself
+    assert res.fit == res.candidates[res.winner].fit and res.fit > 0.9
+    assert all(0 <= c.fit <= c.overlap <= 1 for c in res.candidates)
     assert res.n_rotations > 0 and res.n_offsets == 125 and res.n_evaluations > 0
     assert res.counts.source.input == len(src) and res.counts.target.input == len(tgt)
     assert res.counts.source.resampled == 3000
