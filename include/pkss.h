@@ -375,7 +375,10 @@ PKSS_API pkss_status pkss_cloud_points(const pkss_cloud *cloud, double *xyz,
  *  best of both. The second search scores with a trimmed G: the 80 % of
  *  the matched cells that the pairs' best rotation fits best (the cells
  *  that look into a missing part are left out), so its candidates' score,
- *  score_contour and score_feature are trimmed G values. */
+ *  score_contour and score_feature are trimmed G values.
+ *  The winner is the fully refined candidate with the highest fit
+ *  (pkss_result.candidate_fit: the overlap score within 1 spacing instead
+ *  of 2), ties within 0.003 going to the lower rms. */
 typedef struct pkss_candidate {
     double T_target_source[16]; /* refined pose (see above) */
     double scale;               /* s of T_target_source */
