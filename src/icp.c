@@ -17,8 +17,9 @@
  *     similarity on the mutual pairs within the floor (plane_stage): on
  *     flat faces point-to-point pairs leave the scale and the sliding of a
  *     part loose.
- * The overlap score (coverage, see overlap_with) picks the winner among the
- * refined candidates. Where one cloud shows only a part of the other's
+ * The overlap score (coverage, see overlap_with) judges the runs against
+ * each other while they run; the same score within 1 spacing, the fit,
+ * picks the winner among the refined candidates (register.c). Where one cloud shows only a part of the other's
  * surface, or neither covers the other, register.c first searches the
  * scale that maximises it (pkss__icp_scale_search, on the coarse views,
  * then on all points): the mutual-pair scale update is nearly stationary
@@ -45,10 +46,10 @@
 /* The fit: the coverage overlap within 1 spacing instead of 2, at a
  * refined pose (register.c picks the winner by it). A symmetric pose of a
  * box part (turned 180 degrees, slid along the box) can cover as much of
- * the template within 2 spacings as the truth, or more (milk carton, 35-47
- * % cut away: 0.850 vs 0.847, 0.845 vs 0.833), but lies on it less
- * closely once both are polished (within 1 spacing: 0.685 vs 0.756, 0.659
- * vs 0.739). */
+ * the template within 2 spacings as the truth, or more (milk carton with
+ * 35-38 % cut away: 0.850 vs 0.847, 0.845 vs 0.833), but lies on it less
+ * closely once both are polished (within 1 spacing: 0.685 vs 0.756,
+ * 0.659 vs 0.739). */
 #define ICP_FIT_DIST 1.0
 #define ICP_SAME_BASIN_RAD (3.0 * PKSS_PI / 180.0)
 /* Iterations over which a stage's overlap gain is measured, to project
@@ -275,8 +276,9 @@ static double solve_plane(const pkss__icp_view *src, const pkss__icp_view *tgt,
         }
     }
     /* A direction the pairs leave free (a plane's sliding, the scale of a
-     * flat patch) has a zero row: a relative damping of 1e-6 keeps it
-     * solvable and leaves that direction where it is (its gradient is 0). */
+     * flat patch) makes A singular: a relative damping of 1e-6 keeps it
+     * solvable and leaves that direction where it is (no pair's row, and so
+     * not the gradient, has a component along it). */
     double tr = 0.0;
     for (int i = 0; i < 7; ++i) {
         for (int j = 0; j < i; ++j)
