@@ -401,37 +401,6 @@ static size_t add_mutual_pairs(icp_work *w, size_t ns, double *d2max)
     return n;
 }
 
-/* The point-to-plane stage after the scale stage: mutual pairs within the
- * gate's floor, each step a Gauss-Newton step of the similarity against
- * the template's local planes (solve_plane), until it settles or after
- * iters steps. Returns the steps taken.
- * Point-to-point pairs on flat faces fix the pose only through the faces'
- * rims: a part of a box (milk carton, 30-50 % cut away) ended with its
- * rotation right but its scale 3-10 % and its translation along the box
- * 2-12 % of the diameter off, in a valley where the overlap score is flat
- * (the truth scored 0.875, a pose 2 % smaller and 5 % along the box
- * 0.878). Against the faces' planes every pair on them constrains the
- * scale and the sliding: from those poses it reached the truth (scale
- * within 0.2 %). */
-static int plane_stage(const pkss__icp_view *src, const pkss__icp_view *tgt,
-                       int iters, icp_work *w, pkss__pose *T)
-{
-    const double gate = ICP_GATE_FLOOR * tgt->spacing;
-    if (!tgt->normal)
-        return 0;
-    int it = 0;
-    while (it < iters) {
-        correspond(src, tgt, T, gate, w->fwd, w->fwd_d2, w->bwd, w->bwd_d2);
-        double d2max = 0.0;
-        size_t n = add_mutual_pairs(w, src->m, &d2max);
-        double step = solve_plane(src, tgt, w->pi, w->pj, n, T);
-        ++it;
-        if (step < ICP_PLANE_SETTLED)
-            break;
-    }
-    return it;
-}
-
 /* Distance within which a point counts as covered by the other cloud: 2 x
  * the coarser of the two spacings, in template units. */
 static double coverage_gate(const pkss__icp_view *src,
@@ -509,6 +478,47 @@ static double overlap_from_pairs(const pkss__icp_view *src,
         return -1.0;
     coverage_from_pairs(src, tgt, T, cg, w, f);
     return sqrt(f[0] * f[1]);
+}
+
+/* The point-to-plane stage after the scale stage: mutual pairs within the
+ * gate's floor, each step a Gauss-Newton step of the similarity against
+ * the template's local planes (solve_plane), until it settles or after
+ * iters steps. Returns the steps taken. *overlap_start receives the
+ * overlap score at the pose it starts from, read from its first
+ * correspondences where the floor gate covers the coverage distance (a
+ * source not much sparser than the template), else scored apart.
+ * Point-to-point pairs on flat faces fix the pose only through the faces'
+ * rims: a part of a box (milk carton, 30-50 % cut away) ended with its
+ * rotation right but its scale 3-10 % and its translation along the box
+ * 2-12 % of the diameter off, in a valley where the overlap score is flat
+ * (the truth scored 0.875, a pose 2 % smaller and 5 % along the box
+ * 0.878). Against the faces' planes every pair on them constrains the
+ * scale and the sliding: from those poses it reached the truth (scale
+ * within 0.2 %). */
+static int plane_stage(const pkss__icp_view *src, const pkss__icp_view *tgt,
+                       int iters, icp_work *w, pkss__pose *T,
+                       double *overlap_start)
+{
+    const double gate = ICP_GATE_FLOOR * tgt->spacing;
+    const int runs = tgt->normal && iters > 0;
+    const int from_pairs = runs && gate >= coverage_gate(src, tgt, T);
+    if (!from_pairs) {
+        double rms;
+        overlap_with(src, tgt, T, w, overlap_start, &rms, NULL, NULL);
+    }
+    int it = 0;
+    while (runs && it < iters) {
+        correspond(src, tgt, T, gate, w->fwd, w->fwd_d2, w->bwd, w->bwd_d2);
+        if (it == 0 && from_pairs)
+            *overlap_start = overlap_from_pairs(src, tgt, T, gate, w);
+        double d2max = 0.0;
+        size_t n = add_mutual_pairs(w, src->m, &d2max);
+        double step = solve_plane(src, tgt, w->pi, w->pj, n, T);
+        ++it;
+        if (step < ICP_PLANE_SETTLED)
+            break;
+    }
+    return it;
 }
 
 pkss_status pkss__icp_overlap(const pkss__icp_view *src,
@@ -702,10 +712,9 @@ pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
         /* the basin is where the scale stage ended: a run that reaches it
          * would take the same plane steps */
         add_basin(basins, &T, id);
-        if (sched->plane_iters > 0) {
-            overlap_with(src, tgt, &T, &w, &out->overlap_unpolished, &out->rms, NULL, NULL);
-            it += plane_stage(src, tgt, sched->plane_iters, &w, &T);
-        }
+        if (sched->plane_iters > 0)
+            it += plane_stage(src, tgt, sched->plane_iters, &w, &T,
+                              &out->overlap_unpolished);
     }
     out->pose = T;
     out->iterations = it;
