@@ -101,7 +101,8 @@ __kernel __attribute__((reqd_work_group_size(PKSS_WG_SCORE, 1, 1)))
 void score_pairs(__global const float *src_tab, __global const float *tgt_tab,
                  __global const int *occ, __global const int *rot_info,
                  int n_bin, int n_rot, int n_off, int n_off_pad, int n_az,
-                 int kinds, float keep, __global float *out)
+                 int kinds, float keep, float src_cover,
+                 __global float *out)
 {
     int g = (int)get_global_id(0);
     int n_chunks = n_off_pad / PKSS_VW;
@@ -111,12 +112,14 @@ void score_pairs(__global const float *src_tab, __global const float *tgt_tab,
     size_t table = 4 * (size_t)(n_az * (n_az / 2));
     int b = rot_info[2 * r], shift = rot_info[2 * r + 1];
     pkss_vf gc = pkss_score_lanes(src_tab + b * table, shift, tgt_tab + o0,
-                                  n_off_pad, PKSS_LOADV(occ, o0), n_az, keep);
+                                  n_off_pad, PKSS_LOADV(occ, o0), n_az, keep,
+                                  src_cover);
     pkss_vf gf = PKSS_VF(0.0f);
     if (kinds > 1)
         gf = pkss_score_lanes(src_tab + (n_bin + b) * table, shift,
                               tgt_tab + table * n_off_pad + o0, n_off_pad,
-                              PKSS_LOADV(occ, n_off_pad + o0), n_az, keep);
+                              PKSS_LOADV(occ, n_off_pad + o0), n_az, keep,
+                              src_cover);
     pkss_vf gk = PKSS_SEL(gc > gf, gc, gf);
     float ka[PKSS_VW], ca[PKSS_VW], fa[PKSS_VW];
     PKSS_STOREV(gk, ka);

@@ -363,6 +363,7 @@ pkss_status pkss__search_cl(pkss_context *ctx, const pkss__search_input *in,
     const cl_int n_off_pad = (cl_int)round_up((size_t)n_off, vw);
     const cl_int kinds = in->use_features ? 2 : 1;
     const cl_float keep = in->keep;
+    const cl_float src_cover = in->src_cover;
     const cl_int n_src = in->n_src, n_tgt = in->n_tgt;
     const cl_int n_src_feat = in->use_features ? in->n_src_feat : 0;
     const cl_int n_tgt_feat = in->use_features ? in->n_tgt_feat : 0;
@@ -483,6 +484,7 @@ pkss_status pkss__search_cl(pkss_context *ctx, const pkss__search_input *in,
         ARG(k, a, n_az);
         ARG(k, a, kinds);
         ARG(k, a, keep);
+        ARG(k, a, src_cover);
         ARG(k, a, d->buf[B_SCORES].mem);
         size_t local = d->wg_score;
         size_t global = round_up((size_t)n_rot * (size_t)(n_off_pad / d->vw), local);

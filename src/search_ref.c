@@ -68,9 +68,10 @@ pkss_status pkss__search_ref(pkss_context *ctx, const pkss__search_input *in,
         for (size_t o = 0; o < n_off; ++o) {
             size_t k = r * n_off + o;
             float gc = pkss_score_pair(s, shift, tgt + o * table, occ[2 * o],
-                                       n_az, in->keep);
+                                       n_az, in->keep, in->src_cover);
             float gf = feat ? pkss_score_pair(sf, shift, tgt_feat + o * table,
-                                              occ[2 * o + 1], n_az, in->keep)
+                                              occ[2 * o + 1], n_az, in->keep,
+                                              in->src_cover)
                             : 0.0f;
             scores[k] = gc > gf ? gc : gf;
             if (g_contour)

@@ -110,6 +110,7 @@ pkss_status pkss__search_setup_build(const pkss__params *p,
         .rot = &s->rot, .n_offsets = s->n_offsets, .offsets = s->offsets,
         .use_features = p->use_features,
         .keep = 1.0f,
+        .src_cover = 0.0f,
     };
     s->in = in;
     return PKSS_OK;
@@ -129,5 +130,6 @@ pkss_status pkss__search_setup_widen(const pkss__params *p,
     s->in.offsets = q;
     s->in.n_offsets = n;
     s->in.keep = PKSS_WIDE_KEEP;
+    s->in.src_cover = PKSS_WIDE_SRC_COVER;
     return PKSS_OK;
 }

@@ -105,6 +105,7 @@ static void compare_on(pkss_context *ctx, const char *file, uint64_t seed,
     if (wide) {
         assert_int_equal(pkss__search_setup_widen(&ctx->params, f.tgt, &f.setup), PKSS_OK);
         assert_true(f.setup.in.keep < 1.0f);
+        assert_true(f.setup.in.src_cover > 0.0f); /* both guards compared */
     }
     size_t total_pairs = f.setup.rot.n_rotations * (size_t)f.setup.n_offsets;
     float *ref = malloc(3 * total_pairs * sizeof(float));
@@ -442,9 +443,10 @@ static void test_scores_uniform_rotations(void **state)
     pkss_context_destroy(ctx);
 }
 
-/* The wide second search (register.c): the wide grid and the trimmed
+/* The wide second search (register.c): the wide grid, the trimmed
  * measure, whose bisection and second fit the kernel must run as the
- * reference does (within SCORE_TOL, with the same top-k). */
+ * reference does (within SCORE_TOL, with the same top-k), and the
+ * source-side coverage guard, which refuses the same pairs on both. */
 static void test_scores_trimmed_wide_grid(void **state)
 {
     (void)state;
