@@ -352,10 +352,11 @@ static void register_part(const char *file, const char *name, part_cut pc,
  * offset grid (+-E/4 along the template's PCA axes, SPEC 5): half of it,
  * around the max-x point, cut away. The first search's winner covers
  * neither cloud; the second search, on the wide grid, finds the part.
- * (The 40 % cut around the same point, this test's case until the
- * source-side coverage guard: that guard loses it, 172 degrees off. There
- * no rotation within 25 degrees of its truth ranks above 109th of 744 on
- * the wide grid, behind pairings of 12-16 matched cells that pass the
+ * (The 40 % cuts around the max-y and the max-x point, this test's and
+ * test_part_needs_trimmed_measure's cases until the source-side coverage
+ * guard: that guard loses both, 121 and 172 degrees off. For the max-x
+ * cut no rotation within 25 degrees of its truth ranks above 109th of 744
+ * on the wide grid, behind pairings of 12-16 matched cells that pass the
  * guard with G 0.19. See PKSS_WIDE_SRC_COVER.) */
 static void test_part_beyond_offset_grid(void **state)
 {
