@@ -133,9 +133,11 @@ typedef int pkss_vi;
 
 /* Coverage guard (SPEC 4.4): fewer matched cells than this, or fewer than
  * PKSS_MIN_COVERAGE of the template's occupied cells, gives G = pi/2; so
- * do fewer than `src_cover` of the source's occupied cells (an argument of
- * pkss_score_lanes: 0 in the paper's search, PKSS_WIDE_SRC_COVER of
- * pkss_internal.h in the wide second search). */
+ * do fewer than `src_cover` of the source's occupied cells (arguments of
+ * pkss_score_lanes: src_cover is 0 in the paper's search and
+ * PKSS_WIDE_SRC_COVER of pkss_internal.h in the wide second search; the
+ * source table's occupied count comes from its binning, as the
+ * template's does). */
 #define PKSS_MIN_MATCHED 4
 #define PKSS_MIN_COVERAGE 0.2f
 
@@ -618,23 +620,21 @@ PKSS_INLINE pkss_vf pkss_measure_moments(pkss_vf *H, pkss_vf nx, pkss_vf ny,
 /* of the ceil(keep * k) pairs that the rotation fitted to all k pairs    */
 /* fits best, up to the bisection's tolerance; a lane whose trimmed set   */
 /* cannot be measured keeps the untrimmed G. The coverage guard counts    */
-/* all k matched pairs either way. src_cover: the share of the source's   */
-/* occupied cells the pairs must match (0: no such guard).                */
+/* all k matched pairs either way. src_cover: the share of the source    */
+/* table's src_occupied occupied cells (counted where it was binned) the  */
+/* pairs must match (0: no such guard).                                   */
 PKSS_INLINE pkss_vf pkss_score_lanes(PKSS_CONST float *src, int shift,
                                      PKSS_CONST float *tgt, int tgt_stride,
                                      pkss_vi tgt_occupied, int n_az, float keep,
-                                     float src_cover)
+                                     float src_cover, int src_occupied)
 {
     pkss_trim f;
     f.on = 0;
     pkss_vf mx[3], my[3], H[9], nx, ny, sv[3], V[9];
     pkss_vi k = pkss_pair_means(src, shift, tgt, tgt_stride, n_az, &f, mx, my);
-    float src_occupied = src_cover > 0.0f
-                             ? (float)pkss_count_occupied_strided(src, n_az * (n_az / 2), 1)
-                             : 0.0f;
     pkss_vi valid = (k >= PKSS_MIN_MATCHED) &
                     !(PKSS_TO_VF(k) < PKSS_MIN_COVERAGE * PKSS_TO_VF(tgt_occupied)) &
-                    !(PKSS_TO_VF(k) < PKSS_VF(src_cover * src_occupied));
+                    !(PKSS_TO_VF(k) < PKSS_VF(src_cover * (float)src_occupied));
     if (!PKSS_ANY(valid))
         return PKSS_VF(PKSS_HALF_PI_F);
     pkss_pair_cov(src, shift, tgt, tgt_stride, n_az, &f, mx, my, H, &nx, &ny);
@@ -687,10 +687,11 @@ PKSS_INLINE void pkss_bin_points(PKSS_CONST float *pts, int n, const float *R,
 
 PKSS_INLINE float pkss_score_pair(PKSS_CONST float *src, int shift,
                                   PKSS_CONST float *tgt, int tgt_occupied,
-                                  int n_az, float keep, float src_cover)
+                                  int n_az, float keep, float src_cover,
+                                  int src_occupied)
 {
     return pkss_score_lanes(src, shift, tgt, 1, tgt_occupied, n_az, keep,
-                            src_cover);
+                            src_cover, src_occupied);
 }
 
 PKSS_INLINE int pkss_count_occupied(PKSS_CONST float *reps, int n_cells)

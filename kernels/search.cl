@@ -10,7 +10,8 @@
  * Launched by src/evaluate_cl.c (pkss__search_cl), in this order:
  *   bin_source    one work-item per (binning rotation b, cloud kind):
  *                 kind 0 = contour points, 1 = feature points. Writes one
- *                 rep table float[n_cells][4] per work-item.
+ *                 rep table float[n_cells][4] per work-item and its
+ *                 occupied count.
  *   bin_template  one work-item per (offset o, cloud kind), o < n_off_pad
  *                 (columns o >= n_off are written empty). Writes column o of
  *                 the kind's structure-of-arrays table
@@ -47,7 +48,7 @@ __kernel __attribute__((reqd_work_group_size(PKSS_WG_BIN, 1, 1)))
 void bin_source(__global const float *pts, int n_pts, int pad_pts,
                 int n_feat, int pad_feat, __global const float *bin_R,
                 int n_bin, __global const float *edges, int n_az, int kinds,
-                __global float *tables)
+                __global float *tables, __global int *occ)
 {
     int g = (int)get_global_id(0);
     if (g >= n_bin * kinds)
@@ -58,9 +59,11 @@ void bin_source(__global const float *pts, int n_pts, int pad_pts,
         R[i] = bin_R[9 * b + i];
     int n_cells = n_az * (n_az / 2);
     __global const float *p = kind ? pts + 3 * pad_pts : pts;
+    __global float *t = tables + (size_t)g * 4 * n_cells;
     pkss_bin_points_strided(p, kind ? pad_feat : pad_pts, 1,
                             kind ? n_feat : n_pts, R, 0.0f, 0.0f, 0.0f, n_az,
-                            edges, tables + (size_t)g * 4 * n_cells, 1);
+                            edges, t, 1);
+    occ[g] = pkss_count_occupied_strided(t, n_cells, 1);
 }
 
 __kernel __attribute__((reqd_work_group_size(PKSS_WG_BIN, 1, 1)))
@@ -98,7 +101,8 @@ void bin_template(__global const float *pts, int n_pts, int pad_pts,
 
 /* out: G_K[n_rot][n_off], then G_c, then G_f (0 without features). */
 __kernel __attribute__((reqd_work_group_size(PKSS_WG_SCORE, 1, 1)))
-void score_pairs(__global const float *src_tab, __global const float *tgt_tab,
+void score_pairs(__global const float *src_tab, __global const int *src_occ,
+                 __global const float *tgt_tab,
                  __global const int *occ, __global const int *rot_info,
                  int n_bin, int n_rot, int n_off, int n_off_pad, int n_az,
                  int kinds, float keep, float src_cover,
@@ -113,13 +117,13 @@ void score_pairs(__global const float *src_tab, __global const float *tgt_tab,
     int b = rot_info[2 * r], shift = rot_info[2 * r + 1];
     pkss_vf gc = pkss_score_lanes(src_tab + b * table, shift, tgt_tab + o0,
                                   n_off_pad, PKSS_LOADV(occ, o0), n_az, keep,
-                                  src_cover);
+                                  src_cover, src_occ[b]);
     pkss_vf gf = PKSS_VF(0.0f);
     if (kinds > 1)
         gf = pkss_score_lanes(src_tab + (n_bin + b) * table, shift,
                               tgt_tab + table * n_off_pad + o0, n_off_pad,
                               PKSS_LOADV(occ, n_off_pad + o0), n_az, keep,
-                              src_cover);
+                              src_cover, src_occ[n_bin + b]);
     pkss_vf gk = PKSS_SEL(gc > gf, gc, gf);
     float ka[PKSS_VW], ca[PKSS_VW], fa[PKSS_VW];
     PKSS_STOREV(gk, ka);

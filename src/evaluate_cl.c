@@ -53,6 +53,7 @@ enum {
     B_ROT_INFO,    /* n_rotations x 2 int: binning, shift */
     B_OFFSETS,     /* n_offsets x 3 */
     B_SRC_TAB,     /* kinds x n_binnings rep tables */
+    B_SRC_OCC,     /* kinds x n_binnings occupied-cell counts */
     B_TGT_TAB,     /* kinds x n_offsets rep tables */
     B_TGT_OCC,     /* kinds x n_offsets occupied-cell counts */
     B_SCORES,      /* 3 x n_rotations x n_offsets: G_K, G_c, G_f */
@@ -413,6 +414,7 @@ pkss_status pkss__search_cl(pkss_context *ctx, const pkss__search_input *in,
         (st = ensure(ctx, d, B_ROT_INFO, (size_t)n_rot * 2 * sizeof(int32_t), RO)) ||
         (st = ensure(ctx, d, B_OFFSETS, (size_t)n_off * 3 * sizeof(float), RO)) ||
         (st = ensure(ctx, d, B_SRC_TAB, (size_t)kinds * n_bin * table * sizeof(float), RW)) ||
+        (st = ensure(ctx, d, B_SRC_OCC, (size_t)kinds * n_bin * sizeof(cl_int), RW)) ||
         (st = ensure(ctx, d, B_TGT_TAB, (size_t)kinds * n_off_pad * table * sizeof(float), RW)) ||
         (st = ensure(ctx, d, B_TGT_OCC, (size_t)kinds * n_off_pad * sizeof(cl_int), RW)) ||
         (st = ensure(ctx, d, B_SCORES, 3 * total * sizeof(float), RW)))
@@ -444,6 +446,7 @@ pkss_status pkss__search_cl(pkss_context *ctx, const pkss__search_input *in,
         ARG(k, a, n_az);
         ARG(k, a, kinds);
         ARG(k, a, d->buf[B_SRC_TAB].mem);
+        ARG(k, a, d->buf[B_SRC_OCC].mem);
         size_t local = d->wg_bin;
         size_t global = round_up((size_t)n_bin * kinds, local);
         PKSS_CL_CHECK(ctx, clEnqueueNDRangeKernel(q, k, 1, NULL, &global, &local,
@@ -474,6 +477,7 @@ pkss_status pkss__search_cl(pkss_context *ctx, const pkss__search_input *in,
         cl_kernel k = d->k_score;
         cl_uint a = 0;
         ARG(k, a, d->buf[B_SRC_TAB].mem);
+        ARG(k, a, d->buf[B_SRC_OCC].mem);
         ARG(k, a, d->buf[B_TGT_TAB].mem);
         ARG(k, a, d->buf[B_TGT_OCC].mem);
         ARG(k, a, d->buf[B_ROT_INFO].mem);

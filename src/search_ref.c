@@ -25,10 +25,12 @@ pkss_status pkss__search_ref(pkss_context *ctx, const pkss__search_input *in,
     float *src = pkss__malloc(n_bin * table * sizeof(float) * (feat ? 2 : 1));
     float *tgt = pkss__malloc(n_off * table * sizeof(float) * (feat ? 2 : 1));
     int *occ = pkss__malloc(n_off * 2 * sizeof(int));
-    if (!src || !tgt || !occ) {
+    int *src_occ = pkss__malloc(n_bin * 2 * sizeof(int));
+    if (!src || !tgt || !occ || !src_occ) {
         pkss__free(src);
         pkss__free(tgt);
         pkss__free(occ);
+        pkss__free(src_occ);
         return pkss__fail(ctx, PKSS_ERR_OUT_OF_MEMORY,
                           "out of memory for %zu x %zu search tables", n_bin,
                           n_off);
@@ -42,10 +44,13 @@ pkss_status pkss__search_ref(pkss_context *ctx, const pkss__search_input *in,
     for (size_t b = 0; b < n_bin; ++b) {
         pkss_bin_points(in->src_pts, in->n_src, rot->bin_R + 9 * b, 0.0f, 0.0f,
                         0.0f, n_az, in->edges, src + b * table);
-        if (feat)
+        src_occ[2 * b] = pkss_count_occupied(src + b * table, n_cells);
+        if (feat) {
             pkss_bin_points(in->src_feat, in->n_src_feat, rot->bin_R + 9 * b,
                             0.0f, 0.0f, 0.0f, n_az, in->edges,
                             src_feat + b * table);
+            src_occ[2 * b + 1] = pkss_count_occupied(src_feat + b * table, n_cells);
+        }
     }
     /* ... the template once per centre offset (Eq. 11-12). */
     for (size_t o = 0; o < n_off; ++o) {
@@ -62,16 +67,19 @@ pkss_status pkss__search_ref(pkss_context *ctx, const pkss__search_input *in,
     /* Every (rotation, offset) pair: G_K = max(G_contour, G_feature),
      * Eq. 7_3. */
     for (size_t r = 0; r < rot->n_rotations; ++r) {
-        const float *s = src + (size_t)rot->binning[r] * table;
-        const float *sf = feat ? src_feat + (size_t)rot->binning[r] * table : NULL;
+        const size_t b = (size_t)rot->binning[r];
+        const float *s = src + b * table;
+        const float *sf = feat ? src_feat + b * table : NULL;
         int shift = rot->shift[r];
         for (size_t o = 0; o < n_off; ++o) {
             size_t k = r * n_off + o;
             float gc = pkss_score_pair(s, shift, tgt + o * table, occ[2 * o],
-                                       n_az, in->keep, in->src_cover);
+                                       n_az, in->keep, in->src_cover,
+                                       src_occ[2 * b]);
             float gf = feat ? pkss_score_pair(sf, shift, tgt_feat + o * table,
                                               occ[2 * o + 1], n_az, in->keep,
-                                              in->src_cover)
+                                              in->src_cover,
+                                              src_occ[2 * b + 1])
                             : 0.0f;
             scores[k] = gc > gf ? gc : gf;
             if (g_contour)
@@ -83,6 +91,7 @@ pkss_status pkss__search_ref(pkss_context *ctx, const pkss__search_input *in,
     pkss__free(src);
     pkss__free(tgt);
     pkss__free(occ);
+    pkss__free(src_occ);
     return PKSS_OK;
 }
 

@@ -299,13 +299,13 @@ static void test_trimmed_measure(void **state)
     double worst_clean = 0, worst_ratio = 0, worst_trim = 0;
     for (int n = 0; n < 200; ++n) {
         trim_tables(&rng, 0, src, tgt);
-        float g_full = pkss_score_pair(src, 0, tgt, TRIM_CELLS, TRIM_AZ, 1.0f, 0.0f);
-        float g_trim = pkss_score_pair(src, 0, tgt, TRIM_CELLS, TRIM_AZ, 0.8f, 0.0f);
+        float g_full = pkss_score_pair(src, 0, tgt, TRIM_CELLS, TRIM_AZ, 1.0f, 0.0f, TRIM_CELLS);
+        float g_trim = pkss_score_pair(src, 0, tgt, TRIM_CELLS, TRIM_AZ, 0.8f, 0.0f, TRIM_CELLS);
         worst_clean = fmax(worst_clean, fmax(g_full, g_trim));
         /* 10 of 72 cells (14 %) are outliers */
         trim_tables(&rng, 10, src, tgt);
-        g_full = pkss_score_pair(src, 0, tgt, TRIM_CELLS, TRIM_AZ, 1.0f, 0.0f);
-        g_trim = pkss_score_pair(src, 0, tgt, TRIM_CELLS, TRIM_AZ, 0.8f, 0.0f);
+        g_full = pkss_score_pair(src, 0, tgt, TRIM_CELLS, TRIM_AZ, 1.0f, 0.0f, TRIM_CELLS);
+        g_trim = pkss_score_pair(src, 0, tgt, TRIM_CELLS, TRIM_AZ, 0.8f, 0.0f, TRIM_CELLS);
         assert_float_equal(g_full, reference_G(src, tgt, TRIM_CELLS), 1e-4);
         worst_trim = fmax(worst_trim, g_trim);
         worst_ratio = fmax(worst_ratio, g_trim / g_full);
@@ -320,7 +320,7 @@ static void test_trimmed_measure(void **state)
     /* the coverage guard does not depend on keep: 3 matched pairs */
     for (int c = 3; c < TRIM_CELLS; ++c)
         src[4 * c + 3] = -1.0f;
-    assert_float_equal(pkss_score_pair(src, 0, tgt, TRIM_CELLS, TRIM_AZ, 0.8f, 0.0f),
+    assert_float_equal(pkss_score_pair(src, 0, tgt, TRIM_CELLS, TRIM_AZ, 0.8f, 0.0f, TRIM_CELLS),
                        PKSS_HALF_PI_F, 0.0);
 }
 
@@ -342,21 +342,25 @@ static void test_source_coverage_guard(void **state)
         int below = (int)ceilf(share * TRIM_CELLS) - 1, at = below + 1;
         for (int c = below; c < TRIM_CELLS; ++c)
             tgt[4 * c + 3] = -1.0f;
-        float unguarded = pkss_score_pair(src, 0, tgt, below, TRIM_AZ, 1.0f, 0.0f);
+        float unguarded = pkss_score_pair(src, 0, tgt, below, TRIM_AZ, 1.0f, 0.0f, TRIM_CELLS);
         assert_true(unguarded < 1e-3f); /* the pairs fit: only the guard refuses */
-        assert_float_equal(pkss_score_pair(src, 0, tgt, below, TRIM_AZ, 1.0f, share),
+        assert_float_equal(pkss_score_pair(src, 0, tgt, below, TRIM_AZ, 1.0f, share,
+                                           pkss_count_occupied(src, TRIM_CELLS)),
                            PKSS_HALF_PI_F, 0.0);
-        assert_float_equal(pkss_score_pair(src, 0, tgt, below, TRIM_AZ, PKSS_WIDE_KEEP, share),
+        assert_float_equal(pkss_score_pair(src, 0, tgt, below, TRIM_AZ, PKSS_WIDE_KEEP, share,
+                                           pkss_count_occupied(src, TRIM_CELLS)),
                            PKSS_HALF_PI_F, 0.0);
         tgt[4 * below + 3] = 1.0f; /* one more: the share is reached */
-        assert_float_equal(pkss_score_pair(src, 0, tgt, at, TRIM_AZ, 1.0f, share),
-                           pkss_score_pair(src, 0, tgt, at, TRIM_AZ, 1.0f, 0.0f), 0.0);
+        assert_float_equal(pkss_score_pair(src, 0, tgt, at, TRIM_AZ, 1.0f, share,
+                                           pkss_count_occupied(src, TRIM_CELLS)),
+                           pkss_score_pair(src, 0, tgt, at, TRIM_AZ, 1.0f, 0.0f, TRIM_CELLS), 0.0);
         /* the share counts the source's occupied cells: a source that
          * occupies only the matched cells passes with as few pairs */
         tgt[4 * below + 3] = -1.0f;
         for (int c = below; c < TRIM_CELLS; ++c)
             src[4 * c + 3] = -1.0f;
-        assert_true(pkss_score_pair(src, 0, tgt, below, TRIM_AZ, 1.0f, share) < 1e-3f);
+        assert_true(pkss_score_pair(src, 0, tgt, below, TRIM_AZ, 1.0f, share,
+                                    pkss_count_occupied(src, TRIM_CELLS)) < 1e-3f);
     }
 }
 
