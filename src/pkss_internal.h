@@ -394,6 +394,14 @@ pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
 pkss_status pkss__icp_scale_search(const pkss__icp_view *src,
                                    const pkss__icp_view *tgt, double log_step,
                                    pkss__icp_result *io);
+/* A search along the direction in which the template's surface under the
+ * source constrains the translation least (a part of a box or a cylinder
+ * slides along it): trial shifts of io's pose scored by their fit, the best
+ * polished (point-to-plane steps); io receives the polished pose if its fit
+ * beats io's by more than min_gain. */
+pkss_status pkss__icp_slide_search(const pkss__icp_view *src,
+                                   const pkss__icp_view *tgt, double min_gain,
+                                   pkss__icp_result *io);
 /* Overlap score (coverage, icp.c), RMS of the mutual pairs and the fit
  * (the overlap within 1 spacing; fit may be NULL) at pose. */
 pkss_status pkss__icp_overlap(const pkss__icp_view *src,
