@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: MIT
- * test_refine.c -- the refinement (SPEC 6, icp.c) on a real scan: the
- * slide search that ends it for a part, from a pose slid along a box.
+ * test_refine.c -- the refinement (SPEC 6, icp.c) of parts of real scans:
+ * the slide search that ends it, from a pose slid along a box, and a scale
+ * stage held to a bar that must not stop while its scale still moves.
  */
 #include "support.h"
 
@@ -45,77 +46,94 @@ static double distance3(const double *a, const double *b)
     return sqrt(s);
 }
 
-/* The milk carton (one RGB-D view) with 43 % cut away around its min-y
- * point, with noise (sigma = half the scan's spacing); template: the whole
- * carton, truth: the identity. */
-static double *carton_part(const double *whole, size_t n, size_t *n_part)
+/* A part of a real scan registered onto the whole: `share` of the points
+ * nearest the min point along `axis` cut away, Gaussian noise of `sigma`
+ * added to the rest; truth: the identity. */
+typedef struct part_fixture {
+    double *whole, *part;
+    pkss_context *ctx;
+    pkss_cloud *src, *tgt;
+    pkss__icp_view sv, tv;
+    pkss__pose truth;         /* the identity, in pre-shape coordinates */
+    double truth_overlap, truth_fit;
+} part_fixture;
+
+static void part_setup(part_fixture *f, const char *file, int axis, double share,
+                       double sigma)
 {
+    size_t n;
+    memset(f, 0, sizeof *f);
+    f->whole = pkss_test_load(file, &n);
+    assert_non_null(f->whole);
+    const double *w = f->whole;
     size_t low = 0;
     for (size_t i = 1; i < n; ++i)
-        if (whole[3 * i + 1] < whole[3 * low + 1])
+        if (w[3 * i + axis] < w[3 * low + axis])
             low = i;
-    double from[3] = {whole[3 * low], whole[3 * low + 1], whole[3 * low + 2]};
-    double *part = malloc(3 * n * sizeof(double));
-    assert_non_null(part);
-    memcpy(part, whole, 3 * n * sizeof(double));
+    double from[3] = {w[3 * low], w[3 * low + 1], w[3 * low + 2]};
+    f->part = malloc(3 * n * sizeof(double));
+    assert_non_null(f->part);
+    memcpy(f->part, w, 3 * n * sizeof(double));
     cut_from = from;
-    qsort(part, n, 3 * sizeof(double), by_distance);
-    size_t cut = (size_t)(0.43 * (double)n);
-    *n_part = n - cut;
-    memmove(part, part + 3 * cut, 3 * *n_part * sizeof(double));
+    qsort(f->part, n, 3 * sizeof(double), by_distance);
+    size_t cut = (size_t)(share * (double)n), n_part = n - cut;
+    memmove(f->part, f->part + 3 * cut, 3 * n_part * sizeof(double));
     pkss_test_rng rng = {pkss_test_seed("test_refine", 7)};
-    const double sigma = 0.5 * 0.00147; /* the carton's median NN spacing */
-    for (size_t i = 0; i < 3 * *n_part; ++i)
-        part[i] += sigma * pkss_test_normal(&rng);
-    return part;
+    for (size_t i = 0; i < 3 * n_part; ++i)
+        f->part[i] += sigma * pkss_test_normal(&rng);
+    assert_int_equal(pkss_context_create(&f->ctx), PKSS_OK);
+    assert_int_equal(pkss_cloud_create(f->ctx, f->part, n_part, &f->src), PKSS_OK);
+    assert_int_equal(pkss_cloud_create(f->ctx, w, n, &f->tgt), PKSS_OK);
+    pkss__icp_view_full(f->src, &f->sv);
+    pkss__icp_view_full(f->tgt, &f->tv);
+    identity_pose(f->src, f->tgt, &f->truth);
+    double rms;
+    assert_int_equal(pkss__icp_overlap(&f->sv, &f->tv, &f->truth, &f->truth_overlap,
+                                       &rms, &f->truth_fit), PKSS_OK);
 }
 
-/* From the truth slid 10 spacings either way along the carton, the
- * point-to-plane polish that ends a run stays 6-9 spacings off (the faces'
- * planes do not pull along the box, and the part's rims pull both ways),
- * while the slide search (icp.c) finds the truth again. From the truth,
- * the search keeps the pose as it is. */
+static void part_teardown(part_fixture *f)
+{
+    pkss_cloud_destroy(f->src);
+    pkss_cloud_destroy(f->tgt);
+    pkss_context_destroy(f->ctx);
+    free(f->part);
+    free(f->whole);
+}
+
+/* The milk carton (one RGB-D view), 43 % cut away around its min-y point,
+ * noise sigma = half the scan's spacing (0.00147). From the truth slid 10
+ * spacings either way along the carton, the point-to-plane polish that
+ * ends a run stays 6-9 spacings off (the faces' planes do not pull along
+ * the box, and the part's rims pull both ways), while the slide search
+ * (icp.c) finds the truth again. From the truth, the search keeps the
+ * pose as it is. */
 static void test_slide_search_returns_box_part(void **state)
 {
     (void)state;
-    size_t n, n_part;
-    double *whole = pkss_test_load(MILK, &n);
-    assert_non_null(whole);
-    double *part = carton_part(whole, n, &n_part);
-    pkss_context *ctx = NULL;
-    assert_int_equal(pkss_context_create(&ctx), PKSS_OK);
-    pkss_cloud *src = NULL, *tgt = NULL;
-    assert_int_equal(pkss_cloud_create(ctx, part, n_part, &src), PKSS_OK);
-    assert_int_equal(pkss_cloud_create(ctx, whole, n, &tgt), PKSS_OK);
-    pkss__icp_view sv, tv;
-    pkss__icp_view_full(src, &sv);
-    pkss__icp_view_full(tgt, &tv);
-    const double h = tgt->spacing;
+    part_fixture f;
+    part_setup(&f, MILK, 1, 0.43, 0.5 * 0.00147);
+    const double h = f.tgt->spacing;
     /* the polish alone: point-to-plane steps, as at the end of a run */
     static const pkss__icp_schedule polish = {3.0, 0, 0, 0, 0.0, 0.0, 30};
-    pkss__pose truth;
-    identity_pose(src, tgt, &truth);
-    double truth_overlap, truth_rms, truth_fit;
-    assert_int_equal(pkss__icp_overlap(&sv, &tv, &truth, &truth_overlap, &truth_rms,
-                                       &truth_fit), PKSS_OK);
     for (int way = -1; way <= 1; way += 2) {
-        pkss__pose slid = truth;
+        pkss__pose slid = f.truth;
         for (int d = 0; d < 3; ++d) /* the carton's long axis: its first PCA axis */
-            slid.t[d] += way * 10.0 * h * tgt->axes[3 * d];
+            slid.t[d] += way * 10.0 * h * f.tgt->axes[3 * d];
         pkss__icp_result polished, searched;
-        assert_int_equal(pkss__icp_run(&sv, &tv, &polish, &slid, NULL, 0, &polished),
+        assert_int_equal(pkss__icp_run(&f.sv, &f.tv, &polish, &slid, NULL, 0, &polished),
                          PKSS_OK);
         searched = polished;
-        assert_int_equal(pkss__icp_slide_search(&sv, &tv, 0.003, &searched), PKSS_OK);
-        double off_polished = distance3(polished.pose.t, truth.t) / h;
-        double off_searched = distance3(searched.pose.t, truth.t) / h;
-        double scale_err = fabs(searched.pose.s / truth.s - 1.0);
-        double rot_deg = pkss__rotation_angle(searched.pose.R, truth.R) * 180.0 /
+        assert_int_equal(pkss__icp_slide_search(&f.sv, &f.tv, 0.003, &searched), PKSS_OK);
+        double off_polished = distance3(polished.pose.t, f.truth.t) / h;
+        double off_searched = distance3(searched.pose.t, f.truth.t) / h;
+        double scale_err = fabs(searched.pose.s / f.truth.s - 1.0);
+        double rot_deg = pkss__rotation_angle(searched.pose.R, f.truth.R) * 180.0 /
                          3.14159265358979323846;
         printf("  fit at the truth %.3f; polished from %+d h along the box: %.1f h "
                "off, fit %.3f; then slide search: %.2f h off, %.2f deg, scale "
                "%.2f %%, fit %.3f\n",
-               truth_fit, way * 10, off_polished, polished.fit, off_searched, rot_deg,
+               f.truth_fit, way * 10, off_polished, polished.fit, off_searched, rot_deg,
                100 * scale_err, searched.fit);
         assert_true(off_polished > 5.0); /* the polish alone stays slid */
         assert_true(off_searched < 1.0);  /* the search finds the truth */
@@ -124,20 +142,16 @@ static void test_slide_search_returns_box_part(void **state)
         assert_true(searched.fit > polished.fit + 0.003);
     }
     pkss__icp_result at_truth;
-    assert_int_equal(pkss__icp_run(&sv, &tv, &polish, &truth, NULL, 0, &at_truth), PKSS_OK);
+    assert_int_equal(pkss__icp_run(&f.sv, &f.tv, &polish, &f.truth, NULL, 0, &at_truth),
+                     PKSS_OK);
     pkss__icp_result kept = at_truth;
-    assert_int_equal(pkss__icp_slide_search(&sv, &tv, 0.003, &kept), PKSS_OK);
+    assert_int_equal(pkss__icp_slide_search(&f.sv, &f.tv, 0.003, &kept), PKSS_OK);
     assert_memory_equal(&kept.pose, &at_truth.pose, sizeof kept.pose);
-
-    pkss_cloud_destroy(src);
-    pkss_cloud_destroy(tgt);
-    pkss_context_destroy(ctx);
-    free(part);
-    free(whole);
+    part_teardown(&f);
 }
 
-/* The chef with 40 % cut away around its min-z point and noise (sigma =
- * a quarter of the scan's spacing), from the truth turned 10 degrees and
+/* The chef, 40 % cut away around its min-z point, noise sigma = a quarter
+ * of the scan's spacing (0.00299), from the truth turned 10 degrees and
  * 35 % too small, through the full schedule with its scale stage held to
  * a bar of 0.9 x the truth's overlap, as a refined leader would set it.
  * On the way the overlap stalls for a few iterations while the scale
@@ -147,65 +161,30 @@ static void test_slide_search_returns_box_part(void **state)
 static void test_scale_stage_runs_while_scale_moves(void **state)
 {
     (void)state;
-    size_t n;
-    double *whole = pkss_test_load(CHEF, &n);
-    assert_non_null(whole);
-    size_t low = 0;
-    for (size_t i = 1; i < n; ++i)
-        if (whole[3 * i + 2] < whole[3 * low + 2])
-            low = i;
-    double from[3] = {whole[3 * low], whole[3 * low + 1], whole[3 * low + 2]};
-    double *part = malloc(3 * n * sizeof(double));
-    assert_non_null(part);
-    memcpy(part, whole, 3 * n * sizeof(double));
-    cut_from = from;
-    qsort(part, n, 3 * sizeof(double), by_distance);
-    size_t cut = (size_t)(0.4 * (double)n), n_part = n - cut;
-    memmove(part, part + 3 * cut, 3 * n_part * sizeof(double));
-    pkss_test_rng rng = {pkss_test_seed("test_refine", 7)};
-    const double sigma = 0.25 * 0.00299; /* the chef's median NN spacing */
-    for (size_t i = 0; i < 3 * n_part; ++i)
-        part[i] += sigma * pkss_test_normal(&rng);
-
-    pkss_context *ctx = NULL;
-    assert_int_equal(pkss_context_create(&ctx), PKSS_OK);
-    pkss_cloud *src = NULL, *tgt = NULL;
-    assert_int_equal(pkss_cloud_create(ctx, part, n_part, &src), PKSS_OK);
-    assert_int_equal(pkss_cloud_create(ctx, whole, n, &tgt), PKSS_OK);
-    pkss__icp_view sv, tv;
-    pkss__icp_view_full(src, &sv);
-    pkss__icp_view_full(tgt, &tv);
-    pkss__pose truth, start;
-    identity_pose(src, tgt, &truth);
-    double truth_overlap, truth_rms, truth_fit;
-    assert_int_equal(pkss__icp_overlap(&sv, &tv, &truth, &truth_overlap, &truth_rms,
-                                       &truth_fit), PKSS_OK);
-    start = truth;
+    part_fixture f;
+    part_setup(&f, CHEF, 2, 0.4, 0.25 * 0.00299);
+    pkss__pose start = f.truth;
     start.s *= 0.65;
     const double w[3] = {0.0, 0.0, 10.0 * 3.14159265358979323846 / 180.0};
     double dR[9];
     pkss__rotation_exp(w, dR);
-    pkss__mat3_mul(dR, truth.R, start.R);
+    pkss__mat3_mul(dR, f.truth.R, start.R);
     /* register.c's full schedule, the scale stage judged against the bar */
-    pkss__icp_schedule full = {6.0, 60, 200, PKSS__SCALE_MUTUAL, 0.0, 0.9 * truth_overlap, 30};
+    const double bar = 0.9 * f.truth_overlap;
+    pkss__icp_schedule full = {6.0, 60, 200, PKSS__SCALE_MUTUAL, 0.0, bar, 30};
     pkss__icp_result r;
-    assert_int_equal(pkss__icp_run(&sv, &tv, &full, &start, NULL, 0, &r), PKSS_OK);
-    double scale_err = fabs(r.pose.s / truth.s - 1.0);
-    double rot_deg = pkss__rotation_angle(r.pose.R, truth.R) * 180.0 / 3.14159265358979323846;
+    assert_int_equal(pkss__icp_run(&f.sv, &f.tv, &full, &start, NULL, 0, &r), PKSS_OK);
+    double scale_err = fabs(r.pose.s / f.truth.s - 1.0);
+    double rot_deg = pkss__rotation_angle(r.pose.R, f.truth.R) * 180.0 / 3.14159265358979323846;
     printf("  overlap at the truth %.3f, bar %.3f; from 35 %% small and 10 deg off: "
            "%s after %d iterations, overlap %.3f, scale %.2f %% off, %.2f deg\n",
-           truth_overlap, 0.9 * truth_overlap, r.abandoned ? "abandoned" : "converged",
-           r.iterations, r.overlap, 100 * scale_err, rot_deg);
+           f.truth_overlap, bar, r.abandoned ? "abandoned" : "converged", r.iterations,
+           r.overlap, 100 * scale_err, rot_deg);
     assert_false(r.abandoned);
     assert_true(scale_err < 0.01);
     assert_true(rot_deg < 1.0);
-    assert_true(r.overlap >= 0.9 * truth_overlap);
-
-    pkss_cloud_destroy(src);
-    pkss_cloud_destroy(tgt);
-    pkss_context_destroy(ctx);
-    free(part);
-    free(whole);
+    assert_true(r.overlap >= bar);
+    part_teardown(&f);
 }
 
 int main(void)
