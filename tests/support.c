@@ -235,3 +235,42 @@ void pkss_test_shuffle(pkss_test_rng *r, double *xyz, size_t n)
         }
     }
 }
+
+size_t pkss_test_extreme(const double *xyz, size_t n, int axis, int from_min)
+{
+    const double sign = from_min ? -1.0 : 1.0;
+    size_t top = 0;
+    for (size_t i = 1; i < n; ++i)
+        if (sign * xyz[3 * i + axis] > sign * xyz[3 * top + axis])
+            top = i;
+    return top;
+}
+
+static double cut_centre[3]; /* for by_distance_to_cut (qsort has no context) */
+
+static int by_distance_to_cut(const void *a, const void *b)
+{
+    const double *x = a, *y = b;
+    double da = 0.0, db = 0.0;
+    for (int k = 0; k < 3; ++k) {
+        da += (x[k] - cut_centre[k]) * (x[k] - cut_centre[k]);
+        db += (y[k] - cut_centre[k]) * (y[k] - cut_centre[k]);
+    }
+    return (da > db) - (da < db);
+}
+
+double *pkss_test_cut_near(const double *xyz, size_t n, size_t centre, double share,
+                           size_t *n_part)
+{
+    double *part = malloc(3 * n * sizeof(double));
+    if (!part)
+        return NULL;
+    memcpy(part, xyz, 3 * n * sizeof(double));
+    for (int k = 0; k < 3; ++k)
+        cut_centre[k] = xyz[3 * centre + k];
+    qsort(part, n, 3 * sizeof(double), by_distance_to_cut);
+    size_t cut = (size_t)(share * (double)n);
+    *n_part = n - cut;
+    memmove(part, part + 3 * cut, 3 * *n_part * sizeof(double));
+    return part;
+}

@@ -64,4 +64,13 @@ void pkss_test_centroid(const double *xyz, size_t n, double c[3]);
 /* Shuffles the rows of an n x 3 array. */
 void pkss_test_shuffle(pkss_test_rng *r, double *xyz, size_t n);
 
+/* Index of the point with the largest coordinate `axis` (the smallest with
+ * from_min; the first of ties). */
+size_t pkss_test_extreme(const double *xyz, size_t n, int axis, int from_min);
+/* A part of a cloud: `share` of its n points, those nearest point `centre`,
+ * cut away; the rest, nearest first, in a malloc'd array of *n_part rows
+ * (NULL when out of memory). */
+double *pkss_test_cut_near(const double *xyz, size_t n, size_t centre, double share,
+                           size_t *n_part);
+
 #endif

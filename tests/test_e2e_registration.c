@@ -249,25 +249,9 @@ static void test_prepared_cloud_reuse(void **state)
     free(cloud);
 }
 
-static double dist2_to(const double *x, const double *p)
-{
-    double d = 0.0;
-    for (int k = 0; k < 3; ++k)
-        d += (x[k] - p[k]) * (x[k] - p[k]);
-    return d;
-}
-
 #define PARASAUROLOPHUS "uwa_opencv/parasaurolophus_6700.ply"
 #define MILK "pcl/converted/milk.ply"
 #define CHEF "pcl/converted/chef.ply"
-
-static const double *cut_from; /* the cut's centre, for by_distance */
-
-static int by_distance(const void *a, const void *b)
-{
-    double da = dist2_to(a, cut_from), db = dist2_to(b, cut_from);
-    return (da > db) - (da < db);
-}
 
 /* Where a part is cut: around the extreme point along `axis` (max, or min
  * with from_min) or, with axis < 0, around the point `at` of the file. */
@@ -287,18 +271,10 @@ static void register_part(const char *file, const char *name, part_cut pc,
     double *cloud = pkss_test_load(file, &n);
     assert_non_null(cloud); /* unreadable: reason printed */
     assert_true(pc.axis >= 0 || pc.at < n);
-    size_t top = pc.at;
-    const double sign = pc.from_min ? -1.0 : 1.0;
-    for (size_t i = 1; pc.axis >= 0 && i < n; ++i)
-        if (sign * cloud[3 * i + pc.axis] > sign * cloud[3 * top + pc.axis])
-            top = i;
-    double from[3] = {cloud[3 * top], cloud[3 * top + 1], cloud[3 * top + 2]};
-    double *part = malloc(n * 3 * sizeof(double));
-    memcpy(part, cloud, n * 3 * sizeof(double));
-    cut_from = from;
-    qsort(part, n, 3 * sizeof(double), by_distance);
-    size_t cut = (size_t)(pc.share * (double)n), n_part = n - cut;
-    memmove(part, part + 3 * cut, n_part * 3 * sizeof(double));
+    size_t top = pc.axis >= 0 ? pkss_test_extreme(cloud, n, pc.axis, pc.from_min) : pc.at;
+    size_t n_part;
+    double *part = pkss_test_cut_near(cloud, n, top, pc.share, &n_part);
+    assert_non_null(part);
     /* target = T * whole, T = 1.7 Rx(-60) Ry(25) Rz(40) + (0.3, -0.2, 0.5) d */
     const double deg = 3.14159265358979323846 / 180.0, ax = -60 * deg, ay = 25 * deg, az = 40 * deg;
     double Rx[16] = {1, 0, 0, 0, 0, cos(ax), -sin(ax), 0, 0, sin(ax), cos(ax), 0, 0, 0, 0, 1};

@@ -15,19 +15,6 @@
 #define MILK "pcl/converted/milk.ply"
 #define CHEF "pcl/converted/chef.ply"
 
-static const double *cut_from; /* the cut's centre, for by_distance */
-
-static int by_distance(const void *a, const void *b)
-{
-    const double *x = a, *y = b;
-    double da = 0.0, db = 0.0;
-    for (int k = 0; k < 3; ++k) {
-        da += (x[k] - cut_from[k]) * (x[k] - cut_from[k]);
-        db += (y[k] - cut_from[k]) * (y[k] - cut_from[k]);
-    }
-    return (da > db) - (da < db);
-}
-
 /* The pre-shape pose of the identity in caller coordinates: the source's
  * points where they are, in the template's pre-shape frame. */
 static void identity_pose(const pkss_cloud *src, const pkss_cloud *tgt, pkss__pose *P)
@@ -66,18 +53,9 @@ static void part_setup(part_fixture *f, const char *file, int axis, double share
     f->whole = pkss_test_load(file, &n);
     assert_non_null(f->whole);
     const double *w = f->whole;
-    size_t low = 0;
-    for (size_t i = 1; i < n; ++i)
-        if (w[3 * i + axis] < w[3 * low + axis])
-            low = i;
-    double from[3] = {w[3 * low], w[3 * low + 1], w[3 * low + 2]};
-    f->part = malloc(3 * n * sizeof(double));
+    size_t n_part;
+    f->part = pkss_test_cut_near(w, n, pkss_test_extreme(w, n, axis, 1), share, &n_part);
     assert_non_null(f->part);
-    memcpy(f->part, w, 3 * n * sizeof(double));
-    cut_from = from;
-    qsort(f->part, n, 3 * sizeof(double), by_distance);
-    size_t cut = (size_t)(share * (double)n), n_part = n - cut;
-    memmove(f->part, f->part + 3 * cut, 3 * n_part * sizeof(double));
     pkss_test_rng rng = {pkss_test_seed("test_refine", 7)};
     for (size_t i = 0; i < 3 * n_part; ++i)
         f->part[i] += sigma * pkss_test_normal(&rng);
