@@ -376,9 +376,13 @@ PKSS_API pkss_status pkss_cloud_points(const pkss_cloud *cloud, double *xyz,
  *  the matched cells that the pairs' best rotation fits best (the cells
  *  that look into a missing part are left out), so its candidates' score,
  *  score_contour and score_feature are trimmed G values.
+ *  Once a fully refined candidate covers both clouds (overlap >= 0.98),
+ *  the others get no full refinement either: they are reported after
+ *  their coarse level.
  *  The winner is the fully refined candidate with the highest fit
  *  (pkss_result.candidate_fit: the overlap score within 1 spacing instead
- *  of 2), ties within 0.003 going to the lower rms. */
+ *  of 2), ties within 0.003 going to the lower rms.
+ *  How far each candidate got is in pkss_result.candidate_stage. */
 typedef struct pkss_candidate {
     double T_target_source[16]; /* refined pose (see above) */
     double scale;               /* s of T_target_source */
@@ -394,6 +398,18 @@ typedef struct pkss_candidate {
                                    n_offsets + i: offset i of the wide
                                    grid (second search) */
 } pkss_candidate;
+
+/** How far a candidate's refinement went (pkss_result.candidate_stage). */
+typedef enum pkss_candidate_stage {
+    PKSS_STAGE_SEARCH = 0,  /* the search's pose (Eq. 7-9), scored on all
+                               points: refine off, or left out (above) */
+    PKSS_STAGE_COARSE = 1,  /* the coarse rigid level (a quarter of the
+                               points), then scored on all points */
+    PKSS_STAGE_STOPPED = 2, /* full refinement stopped short: projected to
+                               end behind the refined leader, or arrived
+                               in a refined candidate's minimum */
+    PKSS_STAGE_REFINED = 3  /* full refinement to its end: may win */
+} pkss_candidate_stage;
 
 /** Seconds spent in each stage (wall clock). */
 typedef struct pkss_timings {
@@ -437,6 +453,8 @@ typedef struct pkss_result {
                                    picks the winner among the refined
                                    candidates (fit <= overlap) */
     double candidate_fit[32];   /* each candidate's fit, as candidates[] */
+    uint32_t candidate_stage[32]; /* each candidate's pkss_candidate_stage,
+                                     as candidates[] */
 } pkss_result;
 
 /** pkss_result_init() : zeroes *result and sets struct_size. */

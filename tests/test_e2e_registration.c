@@ -384,6 +384,66 @@ static void test_box_part_slides_on_its_faces(void **state)
     register_part(MILK, "milk carton", (part_cut){1, 1, 0, 0.4}, 0);
 }
 
+/* A complete object, each side an independent 70 % subset (so no pose
+ * fits exactly) under a fixed similarity: the first fully refined
+ * candidate covers both clouds, and no other candidate gets a full
+ * refinement after it (each is reported after its coarse level, or at the
+ * search's pose; see register.c). Without that rule a second candidate of
+ * the milk carton here ran its full refinement (60 rigid iterations and a
+ * scale stage) before falling behind. */
+static void complete_object_one_full_refinement(const char *file, const char *name,
+                                                uint64_t seed)
+{
+    size_t n;
+    double *cloud = pkss_test_load(file, &n);
+    assert_non_null(cloud); /* unreadable: reason printed */
+    pkss_test_rng rng = {seed};
+    size_t ns, nt;
+    double *src = random_subset(&rng, cloud, n, 0.7, &ns);
+    double *tgt = random_subset(&rng, cloud, n, 0.7, &nt);
+    double d = pkss_test_diameter(cloud, n), T[16];
+    pkss_test_random_similarity(&rng, d, T);
+    pkss_test_apply(T, tgt, nt, tgt);
+    pkss_context *ctx = make_context();
+    pkss_result res;
+    pkss_test_err e = register_and_score(ctx, src, ns, tgt, nt, T, &res, name);
+    double s_gt, R_gt[9];
+    pkss_test_decompose(T, &s_gt, R_gt);
+    int n_full = 0, n_coarse = 0;
+    for (uint32_t c = 0; c < res.n_candidates; ++c) {
+        n_full += res.candidate_stage[c] >= PKSS_STAGE_STOPPED;
+        n_coarse += res.candidate_stage[c] == PKSS_STAGE_COARSE;
+    }
+    printf("  %s, complete: rot %.3f deg, scale %.3f %%, trans %.3f %% of diameter, "
+           "overlap %.3f; %u candidates: %d fully refined, %d coarse\n",
+           name, e.rot_deg, 100 * e.scale_rel, 100 * e.trans / (d * s_gt), res.overlap,
+           (unsigned)res.n_candidates, n_full, n_coarse);
+    fflush(stdout);
+    assert_true(e.rot_deg < 5.0);
+    assert_true(e.scale_rel < 0.02);
+    assert_true(e.trans / (d * s_gt) < 0.02);
+    assert_true(res.overlap >= 0.98);
+    assert_int_equal(res.candidate_stage[res.winner], PKSS_STAGE_REFINED);
+    assert_true(res.n_candidates >= 2);
+    assert_int_equal(n_full, 1);
+    for (uint32_t c = 0; c < res.n_candidates; ++c)
+        if (c != res.winner)
+            assert_true(res.candidate_stage[c] == PKSS_STAGE_COARSE ||
+                        res.candidate_stage[c] == PKSS_STAGE_SEARCH);
+    pkss_context_destroy(ctx);
+    free(src);
+    free(tgt);
+    free(cloud);
+}
+
+static void test_complete_object_one_full_refinement(void **state)
+{
+    (void)state;
+    uint64_t seed = pkss_test_seed(PROGRAM, 20261130);
+    complete_object_one_full_refinement(MILK, "milk carton", seed);
+    complete_object_one_full_refinement(CHEF, "chef", seed + 1);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -396,6 +456,7 @@ int main(void)
         cmocka_unit_test(test_part_among_few_cell_pairings),
         cmocka_unit_test(test_part_too_large_at_preshape_scale),
         cmocka_unit_test(test_box_part_slides_on_its_faces),
+        cmocka_unit_test(test_complete_object_one_full_refinement),
     };
     return cmocka_run_group_tests_name(PROGRAM, tests, NULL, NULL);
 }

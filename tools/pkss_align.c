@@ -765,6 +765,17 @@ static const char *backend_name(int b)
     }
 }
 
+static const char *stage_name(uint32_t stage)
+{
+    switch (stage) {
+    case PKSS_STAGE_SEARCH: return "search";
+    case PKSS_STAGE_COARSE: return "coarse";
+    case PKSS_STAGE_STOPPED: return "stopped";
+    case PKSS_STAGE_REFINED: return "refined";
+    default: return "unknown";
+    }
+}
+
 /* Rotation angle of a row-major 3x3 rotation, degrees. */
 static double rotation_angle_deg(const double *R)
 {
@@ -880,6 +891,8 @@ static int write_json(const char *path, const run_info *ri,
             json_num(f, c->overlap);
             fputs(", \"fit\": ", f);
             json_num(f, r->candidate_fit[i]);
+            fputs(", \"stage\": ", f);
+            json_str(f, stage_name(r->candidate_stage[i]));
             fprintf(f, ", \"rotation_index\": %u, \"offset_index\": %u}",
                     (unsigned)c->rotation_index, (unsigned)c->offset_index);
         }
@@ -1019,10 +1032,11 @@ static void print_verbose(const run_info *ri, const pkss_result *r)
         int on_wide = c->offset_index >= r->n_offsets;
         fprintf(stderr,
                 "  %c%2u score %.5f (contour %.5f, feature %.5f) scale "
-                "%.6g rms %.6g overlap %.4f fit %.4f rot#%u %s#%u\n",
+                "%.6g rms %.6g overlap %.4f fit %.4f %-7s rot#%u %s#%u\n",
                 i == r->winner ? '*' : ' ', (unsigned)i, c->score,
                 c->score_contour, c->score_feature, c->scale, c->rms,
-                c->overlap, r->candidate_fit[i], (unsigned)c->rotation_index,
+                c->overlap, r->candidate_fit[i],
+                stage_name(r->candidate_stage[i]), (unsigned)c->rotation_index,
                 on_wide ? "wide" : "off",
                 (unsigned)(c->offset_index - (on_wide ? r->n_offsets : 0)));
     }

@@ -233,6 +233,7 @@ case_outputs_drop_nonfinite() {
     for key in T_target_source scale rotation translation candidates source_counts timings device; do
         grep -q "\"$key\"" "$WORK/r.json" || fail "JSON lacks $key"
     done
+    grep -q '"stage": "refined"' "$WORK/r.json" || fail "JSON lacks a refined candidate's stage"
     if command -v python3 >/dev/null 2>&1; then
         python3 -m json.tool "$WORK/r.json" >/dev/null || fail "invalid JSON"
     fi

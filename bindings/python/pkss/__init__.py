@@ -292,6 +292,11 @@ class Candidate:
     #: the overlap score within 1 spacing (<= overlap); the winner is the
     #: refined candidate with the highest fit
     fit: float
+    #: how far its refinement went: ``"search"`` (the search's pose),
+    #: ``"coarse"`` (the coarse rigid level), ``"stopped"`` (full refinement
+    #: stopped short: behind the refined leader, or in another's minimum),
+    #: ``"refined"`` (full refinement to its end; only these can win)
+    stage: str
 
     def apply(self, points: ArrayLike) -> np.ndarray:
         """Map (N, 3) source points into the target frame with this pose."""
@@ -299,9 +304,9 @@ class Candidate:
 
     def __repr__(self) -> str:
         return ("Candidate(scale=%.6g, score=%.4g, rms=%.4g, overlap=%.3f, fit=%.3f, "
-                "rotation_index=%d, offset_index=%d)"
+                "stage=%r, rotation_index=%d, offset_index=%d)"
                 % (self.scale, self.score, self.rms, self.overlap, self.fit,
-                   self.rotation_index, self.offset_index))
+                   self.stage, self.rotation_index, self.offset_index))
 
 
 @dataclass(frozen=True, repr=False)
@@ -343,6 +348,8 @@ class Result:
 
 
 _BACKEND_NAMES = {v: k for k, v in _BACKENDS.items()}
+_STAGE_NAMES = {lib.PKSS_STAGE_SEARCH: "search", lib.PKSS_STAGE_COARSE: "coarse",
+                lib.PKSS_STAGE_STOPPED: "stopped", lib.PKSS_STAGE_REFINED: "refined"}
 
 
 def _matrix(cdata: Any, shape: Tuple[int, ...]) -> np.ndarray:
@@ -362,7 +369,8 @@ def _result(r: Any) -> Result:
         cands.append(Candidate(_matrix(c.T_target_source, (4, 4)), c.scale, c.score,
                                c.score_contour, c.score_feature, c.rms, c.overlap,
                                int(c.rotation_index), int(c.offset_index),
-                               float(r.candidate_fit[i])))
+                               float(r.candidate_fit[i]),
+                               _STAGE_NAMES[int(r.candidate_stage[i])]))
     t = r.timings
     return Result(
         transform=_matrix(r.T_target_source, (4, 4)), scale=r.scale,

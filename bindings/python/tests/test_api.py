@@ -456,6 +456,12 @@ def test_result_is_plain_python_and_numpy():
     assert res.transform.shape == (4, 4) and res.transform.dtype == np.float64
     assert isinstance(res.scale, float) and isinstance(res.candidates[0].offset_index, int)
     assert "Result(scale=" in repr(res) and "Candidate(" in repr(res.candidates[0])
+    # how far each candidate got: the winner ran the full refinement
+    assert res.candidates[res.winner].stage == "refined"
+    assert {c.stage for c in res.candidates} <= {"search", "coarse", "stopped", "refined"}
+    with pkss.Context(**dict(FAST, refine=False)) as ctx:
+        raw = ctx.register(src, tgt)
+    assert [c.stage for c in raw.candidates] == ["search"] * len(raw.candidates)
 
 
 # ------------------------------------------------------------------- devices
