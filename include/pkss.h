@@ -377,8 +377,8 @@ PKSS_API pkss_status pkss_cloud_points(const pkss_cloud *cloud, double *xyz,
  *  that look into a missing part are left out), so its candidates' score,
  *  score_contour and score_feature are trimmed G values.
  *  Once a fully refined candidate covers both clouds (overlap >= 0.98),
- *  the others get no full refinement either: they are reported after
- *  their coarse level.
+ *  the search's remaining candidates get no full refinement: they are
+ *  reported after their coarse level (or at the search's pose, above).
  *  The winner is the fully refined candidate with the highest fit
  *  (pkss_result.candidate_fit: the overlap score within 1 spacing instead
  *  of 2), ties within 0.003 going to the lower rms.

@@ -466,16 +466,18 @@ static pkss_status search_pass(pkss_context *ctx, const pkss_cloud *src,
              * (overlap >= PKSS_COARSE_COMPLETE) ends the full refinements,
              * as a complete coarse level ends the coarse ones above:
              * another pose could raise the overlap by 0.02 at most.
-             * Development seeds (base 7, 8 per object; similarity,
-             * density, noise G/U, outliers: 336 pairs; real pairs 54;
-             * 30-50 % missing and combined 112): no candidate refined
-             * after such a leader ever won, while those runs took 29 %
-             * of the complete objects' time (chef, noise r = 0.6: two
-             * runs of 60 rigid and 7-30 scale iterations ending at fit
-             * 0.67 against the leader's 0.90). Parts never have such a
-             * leader. (A complete object with a symmetry that maps it onto
-             * itself within 2 spacings would need it; the milk carton
-             * turned over covers 0.79-0.84 in those runs.) */
+             * Those runs took 29 % of the complete objects' time (base 7,
+             * 8 per object; chef with noise r = 0.6: two runs of 60 rigid
+             * and 7-30 scale iterations, ending at fit 0.67 against the
+             * leader's 0.90). Development seeds (base 7 and 11, 8 per
+             * object; similarity, density, noise G 0.4/0.6 and U 0.6,
+             * outliers: 672 pairs): strict results unchanged; a later
+             * candidate had won once (noise G 0.6 rabbit, fit 0.951 vs
+             * 0.946: 0.19 vs 0.68 degrees off, strict either way). Parts
+             * and real pairs (138): unchanged, no part's run covers both
+             * clouds. (A complete object that a symmetry maps onto itself
+             * within 2 spacings would need the others' runs; the milk
+             * carton turned over covers 0.79-0.84.) */
             refined[c] = i < n_full && !same_basin &&
                          lead_here < PKSS_COARSE_COMPLETE;
             if (refined[c]) {
