@@ -386,11 +386,12 @@ static pkss_status search_pass(pkss_context *ctx, const pkss_cloud *src,
     pkss__icp_result *ir = cs->ir + base;
     pkss_status *cst = cs->st + base;
     int *refined = cs->refined + base;
+    uint32_t *stage = cs->stage + base;
     int order[PKSS_MAX_CANDIDATES], list[PKSS_MAX_CANDIDATES];
     /* scored on all points at its final pose already (CAND_START unrefined) */
     int scored[PKSS_MAX_CANDIDATES] = {0};
     cand_work cw = {ss, src, tgt, picks, &v->sv, &v->tv, &v->svc, &v->tvc,
-                    &coarse, p->refine, ir, cst, cs->stage + base, list, kept,
+                    &coarse, p->refine, ir, cst, stage, list, kept,
                     CAND_START, 0, 1};
     for (size_t c = 0; c < kept; ++c) {
         order[c] = (int)c;
@@ -517,7 +518,7 @@ static pkss_status search_pass(pkss_context *ctx, const pkss_cloud *src,
                 if (st != PKSS_OK)
                     goto oom;
                 if (ir[c].duplicate_of >= 0 || ir[c].abandoned) {
-                    cs->stage[base + c] = PKSS_STAGE_STOPPED;
+                    stage[c] = PKSS_STAGE_STOPPED;
                     /* reached a refined candidate's rigid minimum or final
                      * pose (that one stands for the basin), or fell behind
                      * the leader:
@@ -525,7 +526,7 @@ static pkss_status search_pass(pkss_context *ctx, const pkss_cloud *src,
                      * not in the selection */
                     refined[c] = 0;
                 } else {
-                    cs->stage[base + c] = PKSS_STAGE_REFINED;
+                    stage[c] = PKSS_STAGE_REFINED;
                     /* the bars are held at the stage they judge: before
                      * the point-to-plane polish, which raises a box
                      * part's overlap by ~0.01-0.03 and made the others'

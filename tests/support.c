@@ -274,3 +274,29 @@ double *pkss_test_cut_near(const double *xyz, size_t n, size_t centre, double sh
     memmove(part, part + 3 * cut, 3 * *n_part * sizeof(double));
     return part;
 }
+
+/* Keeps each point with probability p (NULL when out of memory). */
+static double *random_subset(pkss_test_rng *r, const double *xyz, size_t n, double p,
+                             size_t *n_out)
+{
+    double *out = malloc((n ? n : 1) * 3 * sizeof(double));
+    size_t k = 0;
+    for (size_t i = 0; out && i < n; ++i)
+        if (pkss_test_uniform(r) < p) {
+            memcpy(out + 3 * k, xyz + 3 * i, 3 * sizeof(double));
+            ++k;
+        }
+    *n_out = k;
+    return out;
+}
+
+void pkss_test_similar_pair(pkss_test_rng *r, const double *xyz, size_t n, double p,
+                            double **src, size_t *ns, double **tgt, size_t *nt,
+                            double T[16])
+{
+    *src = random_subset(r, xyz, n, p, ns);
+    *tgt = random_subset(r, xyz, n, p, nt);
+    pkss_test_random_similarity(r, pkss_test_diameter(xyz, n), T);
+    if (*tgt)
+        pkss_test_apply(T, *tgt, *nt, *tgt);
+}

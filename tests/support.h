@@ -64,6 +64,14 @@ void pkss_test_centroid(const double *xyz, size_t n, double c[3]);
 /* Shuffles the rows of an n x 3 array. */
 void pkss_test_shuffle(pkss_test_rng *r, double *xyz, size_t n);
 
+/* Two independent resamplings of one cloud (each point kept with
+ * probability p, source first), the target mapped by a random similarity
+ * T (pkss_test_random_similarity with the cloud's diameter): target =
+ * T * source up to the sampling. Malloc'd arrays; NULL when out of memory. */
+void pkss_test_similar_pair(pkss_test_rng *r, const double *xyz, size_t n, double p,
+                            double **src, size_t *ns, double **tgt, size_t *nt,
+                            double T[16]);
+
 /* Index of the point with the largest coordinate `axis` (the smallest with
  * from_min; the first of ties). */
 size_t pkss_test_extreme(const double *xyz, size_t n, int axis, int from_min);

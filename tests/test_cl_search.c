@@ -58,22 +58,6 @@ static pkss_context *opencl_context(void)
     return ctx;
 }
 
-/* Keeps each point with probability p: an independent resampling. */
-static double *random_subset(pkss_test_rng *rng, const double *xyz, size_t n,
-                             double p, size_t *n_out)
-{
-    double *out = malloc(n * 3 * sizeof(double));
-    assert_non_null(out);
-    size_t k = 0;
-    for (size_t i = 0; i < n; ++i)
-        if (pkss_test_uniform(rng) < p) {
-            memcpy(out + 3 * k, xyz + 3 * i, 3 * sizeof(double));
-            ++k;
-        }
-    *n_out = k;
-    return out;
-}
-
 typedef struct compare_stats {
     double max_diff;
     size_t pairs;
@@ -92,11 +76,10 @@ static void compare_on(pkss_context *ctx, const char *file, uint64_t seed,
     assert_non_null(cloud); /* unreadable: reason printed */
     pkss_test_rng rng = {seed};
     size_t ns, nt;
-    double *src = random_subset(&rng, cloud, n, 0.7, &ns);
-    double *tgt = random_subset(&rng, cloud, n, 0.7, &nt);
-    double T[16];
-    pkss_test_random_similarity(&rng, pkss_test_diameter(cloud, n), T);
-    pkss_test_apply(T, tgt, nt, tgt);
+    double *src, *tgt, T[16];
+    pkss_test_similar_pair(&rng, cloud, n, 0.7, &src, &ns, &tgt, &nt, T);
+    assert_non_null(src);
+    assert_non_null(tgt);
 
     search_fixture f;
     pkss_status st = search_fixture_build(ctx, src, ns, tgt, nt, &f);

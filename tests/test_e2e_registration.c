@@ -40,22 +40,6 @@ static pkss_context *make_context(void)
     return ctx;
 }
 
-/* Keeps each point with probability p (an independent resampling of the
- * same surface, so source and target are not point-for-point copies). */
-static double *random_subset(pkss_test_rng *rng, const double *xyz, size_t n,
-                             double p, size_t *n_out)
-{
-    double *out = malloc(n * 3 * sizeof(double));
-    size_t k = 0;
-    for (size_t i = 0; i < n; ++i)
-        if (pkss_test_uniform(rng) < p) {
-            memcpy(out + 3 * k, xyz + 3 * i, 3 * sizeof(double));
-            ++k;
-        }
-    *n_out = k;
-    return out;
-}
-
 /* Registers src onto tgt and returns the pose error against the ground
  * truth T (target = T * source), measured at the source's centroid; a
  * failed registration fails the test with `what` and the library's detail. */
@@ -88,11 +72,10 @@ static void run_random_cases(const char *file, int n_cases, uint64_t seed,
     pkss_test_rng rng = {seed};
     for (int c = 0; c < n_cases; ++c) {
         size_t ns, nt;
-        double *src = random_subset(&rng, cloud, n, 0.7, &ns);
-        double *tgt = random_subset(&rng, cloud, n, 0.7, &nt);
-        double T[16];
-        pkss_test_random_similarity(&rng, diameter, T);
-        pkss_test_apply(T, tgt, nt, tgt);
+        double *src, *tgt, T[16];
+        pkss_test_similar_pair(&rng, cloud, n, 0.7, &src, &ns, &tgt, &nt, T);
+        assert_non_null(src);
+        assert_non_null(tgt);
         pkss_result res;
         char what[256];
         snprintf(what, sizeof what, "%s case %d", file, c);
@@ -399,11 +382,11 @@ static void complete_object_one_full_refinement(const char *file, const char *na
     assert_non_null(cloud); /* unreadable: reason printed */
     pkss_test_rng rng = {seed};
     size_t ns, nt;
-    double *src = random_subset(&rng, cloud, n, 0.7, &ns);
-    double *tgt = random_subset(&rng, cloud, n, 0.7, &nt);
-    double d = pkss_test_diameter(cloud, n), T[16];
-    pkss_test_random_similarity(&rng, d, T);
-    pkss_test_apply(T, tgt, nt, tgt);
+    double *src, *tgt, T[16];
+    pkss_test_similar_pair(&rng, cloud, n, 0.7, &src, &ns, &tgt, &nt, T);
+    assert_non_null(src);
+    assert_non_null(tgt);
+    double d = pkss_test_diameter(cloud, n);
     pkss_context *ctx = make_context();
     pkss_result res;
     pkss_test_err e = register_and_score(ctx, src, ns, tgt, nt, T, &res, name);
