@@ -10,8 +10,16 @@
  *   Context      -- one context holds parameters, the device and the last error
  *   Parameters   -- tunables, set one at a time; 0 always means "default"
  *   Devices      -- OpenCL devices as pkss sees them
+ *   Progress     -- a callback that reports progress and can cancel
  *   Clouds       -- a cloud prepared once and registered against many
- *   Evaluation   -- pkss_register() and its result
+ *   Evaluation   -- pkss_register(), its result and its candidates
+ *
+ * COMPATIBILITY (docs/compatibility.md): within 1.x nothing declared here is
+ * removed, renumbered or changes meaning. Structs that may grow start with
+ * `size_t struct_size`, set by their *_init(ptr, sizeof *ptr): the library
+ * fills only the whole fields that size covers, so a caller built against
+ * an older 1.x header stays safe. Fields marked EXPERIMENTAL may change in
+ * a minor release (they sit after the stable ones).
  *
  * FRAME CONVENTION (defined once, used everywhere):
  *   T_target_source maps source points into the target frame,
@@ -26,10 +34,13 @@
  * THREAD SAFETY: global functions (version, status strings, parameter
  * bounds, device listing) are thread-safe. A context, and a cloud, must not
  * be used by two threads at once; use one context per thread. Different
- * contexts are independent and may run concurrently. Internally a call may
- * use one extra thread (the two clouds' pre-processing, the ICP's two
- * correspondence directions and its candidates run two at a time), plus
- * the OpenCL device's own threads.
+ * contexts are independent and may run concurrently. Internally a call
+ * runs the two clouds' pre-processing and its candidates two at a time,
+ * and a correspondence pass of 2000 points or more in two directions at
+ * once: up to three extra threads, plus the OpenCL device's own.
+ *
+ * "SPEC N" is section N of docs/spec.md, which pins down what the paper
+ * leaves open; "Eq. N" is the paper's equation N.
  *
  * The declarations below contain no macros except PKSS_API, so that Python's
  * cffi can parse the block between the PKSS_CDEF markers as it is.
@@ -52,16 +63,18 @@
 /* Version                                                               */
 /* ===================================================================== */
 /* CMake reads these three lines: the version is defined here only. */
-#define PKSS_VERSION_MAJOR 0
-#define PKSS_VERSION_MINOR 1
+#define PKSS_VERSION_MAJOR 1
+#define PKSS_VERSION_MINOR 0
 #define PKSS_VERSION_PATCH 0
 /* MAJOR*10000 + MINOR*100 + PATCH */
-#define PKSS_VERSION_NUMBER 100
+#define PKSS_VERSION_NUMBER 10000
 
 /* Largest number of candidates a result can hold (PKSS_PARAM_TOP_K max). */
 #define PKSS_MAX_CANDIDATES 32
 /* Size of the device name buffer in pkss_result and pkss_device_desc. */
 #define PKSS_NAME_SIZE 128
+/* Size of pkss_result.note. */
+#define PKSS_NOTE_SIZE 256
 
 #ifdef __cplusplus
 extern "C" {
@@ -102,6 +115,7 @@ typedef enum pkss_status {
     PKSS_ERR_OUT_OF_RANGE = 7,     /* coordinates too large for float32 work */
     PKSS_ERR_UNKNOWN_PARAMETER = 8,/* pkss_param value not known */
     PKSS_ERR_WRONG_PARAMETER_TYPE = 9, /* int setter on a double param etc. */
+    PKSS_ERR_CANCELLED = 10,       /* the progress callback asked to stop */
     PKSS_ERR_OUT_OF_MEMORY = 100,
     PKSS_ERR_NO_DEVICE = 200,      /* no OpenCL platform/device available */
     PKSS_ERR_DEVICE = 201,         /* an OpenCL call failed (see detail) */
@@ -171,63 +185,30 @@ PKSS_API pkss_status pkss_context_reset(pkss_context *ctx, pkss_reset what);
 /* Every parameter: value 0 means "library default"; settings stick until
  * pkss_context_reset(ctx, PKSS_RESET_PARAMS). Out-of-range values are
  * rejected with PKSS_ERR_INVALID_ARGUMENT and leave the setting unchanged.
- * Switches take pkss_switch values. Section numbers refer to SPEC.md. */
+ * Switches take pkss_switch values. The range, default, unit and a one-line
+ * description of every parameter come from pkss_param_at(): that table is
+ * the one source of these facts (the CLI, the Python binding and the
+ * README are generated from it or checked against it). */
 typedef enum pkss_param {
-    /* int: m, resampled points per cloud (SPEC 2.4). Default 3000,
-     * range 256..20000. */
-    PKSS_PARAM_POINTS = 100,
-    /* int: n, rotation steps per axis of the Euler grid; the step is 2*pi/n
-     * (SPEC 5). Default 12, range 4..36, even. */
-    PKSS_PARAM_ROTATION_STEPS = 101,
-    /* int: N, offsets per PCA axis of the translation search (SPEC 5).
-     * Default 5 (125 offsets), range 1..9, odd; 1 disables the search. */
-    PKSS_PARAM_OFFSET_STEPS = 102,
-    /* int: azimuth bins of the cell partition; elevation bins are half of it
-     * (SPEC 3). Default = rotation steps, range 4..48, even, and a multiple
-     * of the rotation steps or not (then no shift factorisation). */
-    PKSS_PARAM_CELL_STEPS = 103,
-    /* switch: mutual-kNN outlier culling, Eq. 3 (SPEC 2.2). Default on. */
-    PKSS_PARAM_CULL_MUTUAL = 110,
-    /* switch: density-aware statistical outlier filter (SPEC 2.3).
-     * Default on. */
-    PKSS_PARAM_CULL_STAT = 111,
-    /* switch: feature representatives and G_K = max(G_c, G_f), Eq. 7_3
-     * (SPEC 2.6, 4.5). Default on. */
-    PKSS_PARAM_USE_FEATURES = 112,
-    /* double: share of resampled points kept as feature points by D_pca.
-     * Default 0.10, range 0.01..0.5. */
-    PKSS_PARAM_FEATURE_FRAC = 113,
-    /* switch: PCA pre-alignment of the source to the template (SPEC 2.7).
-     * Default on. */
-    PKSS_PARAM_PCA_PREALIGN = 114,
-    /* int: pkss_rotation_set. Default PKSS_ROTATIONS_EULER (744 distinct). */
-    PKSS_PARAM_ROTATION_SET = 120,
-    /* int: rotations in the uniform set. Default 1728, range 24..20000. */
-    PKSS_PARAM_ROTATION_COUNT = 121,
-    /* int: candidates kept after the search and refined (SPEC 5).
-     * Default 10, range 1..PKSS_MAX_CANDIDATES. A second search (see
-     * pkss_candidate) keeps as many more, up to PKSS_MAX_CANDIDATES in
-     * all. */
-    PKSS_PARAM_TOP_K = 122,
-    /* switch: overlap-aware similarity ICP (SPEC 6). Default on; off
-     * returns the best search candidate unrefined. */
-    PKSS_PARAM_REFINE = 123,
-    /* int: seed for every random choice. Default 0, range 0..2^31-1. */
-    PKSS_PARAM_SEED = 130,
-    /* int: above this many points an input is voxel-thinned first
-     * (SPEC 2.1). Default 200000, range 1000..100000000. */
-    PKSS_PARAM_MAX_RAW_POINTS = 131,
-    /* switch: drop NaN/Inf points instead of failing (SPEC 1). Default off. */
-    PKSS_PARAM_DROP_NONFINITE = 132,
-    /* int: fewest finite points accepted (SPEC 1). Default 32, range
-     * 16..1000000. */
-    PKSS_PARAM_MIN_POINTS = 133,
-    /* int: pkss_backend. Default PKSS_BACKEND_AUTO. */
-    PKSS_PARAM_BACKEND = 140,
-    /* string: device by index ("0", "1", ...) or by case-insensitive name
-     * substring ("cpu", "pthread", "NVIDIA"). Default: the PKSS_DEVICE
-     * environment variable, then the first GPU, then the first CPU. */
-    PKSS_PARAM_DEVICE = 141
+    PKSS_PARAM_POINTS = 100,          /* int: m, resampled points per cloud */
+    PKSS_PARAM_ROTATION_STEPS = 101,  /* int: n, Euler grid steps per axis */
+    PKSS_PARAM_OFFSET_STEPS = 102,    /* int: N, centre offsets per PCA axis */
+    PKSS_PARAM_CELL_STEPS = 103,      /* int: azimuth bins of the cells */
+    PKSS_PARAM_CULL_MUTUAL = 110,     /* switch: mutual-kNN culling, Eq. 3 */
+    PKSS_PARAM_CULL_STAT = 111,       /* switch: statistical outlier filter */
+    PKSS_PARAM_USE_FEATURES = 112,    /* switch: feature cells, Eq. 7_3 */
+    PKSS_PARAM_FEATURE_FRAC = 113,    /* double: share kept as features */
+    PKSS_PARAM_PCA_PREALIGN = 114,    /* switch: PCA pre-alignment */
+    PKSS_PARAM_ROTATION_SET = 120,    /* choice: pkss_rotation_set */
+    PKSS_PARAM_ROTATION_COUNT = 121,  /* int: rotations of the uniform set */
+    PKSS_PARAM_TOP_K = 122,           /* int: candidates kept per search */
+    PKSS_PARAM_REFINE = 123,          /* switch: similarity ICP */
+    PKSS_PARAM_SEED = 130,            /* int: seed of every random choice */
+    PKSS_PARAM_MAX_RAW_POINTS = 131,  /* int: voxel-thin inputs above this */
+    PKSS_PARAM_DROP_NONFINITE = 132,  /* switch: drop NaN/Inf points */
+    PKSS_PARAM_MIN_POINTS = 133,      /* int: fewest usable points */
+    PKSS_PARAM_BACKEND = 140,         /* choice: pkss_backend */
+    PKSS_PARAM_DEVICE = 141           /* string: OpenCL device */
 } pkss_param;
 
 typedef enum pkss_switch {
@@ -281,6 +262,46 @@ PKSS_API pkss_status pkss_param_bounds(pkss_param param, double *lower,
  *  an unknown parameter. The names the bindings and tools use. */
 PKSS_API const char *pkss_param_name(pkss_param param);
 
+/** Kinds of parameter value (pkss_param_info.type). */
+typedef enum pkss_param_type {
+    PKSS_TYPE_INT = 1,    /* integer in [lower, upper] */
+    PKSS_TYPE_DOUBLE = 2, /* real in [lower, upper] */
+    PKSS_TYPE_SWITCH = 3, /* pkss_switch: 0 default, 1 on, 2 off */
+    PKSS_TYPE_CHOICE = 4, /* an enum: values 0..upper named in `choices` */
+    PKSS_TYPE_STRING = 5  /* pkss_context_set_string() */
+} pkss_param_type;
+
+/** Everything known about one parameter. Strings are static storage. */
+typedef struct pkss_param_info {
+    size_t struct_size;      /* set by pkss_param_info_init() */
+    int32_t id;              /* pkss_param */
+    int32_t type;            /* pkss_param_type */
+    const char *name;        /* as pkss_param_name() */
+    double lower, upper;     /* valid range (0 = default is always valid) */
+    double default_value;    /* switches and choices: the value's number */
+    const char *unit;        /* "points", "steps", "fraction", "" ... */
+    const char *choices;     /* switch/choice: '|'-separated names of the
+                                values 0, 1, 2, ...; "" otherwise */
+    const char *constraint;  /* "even", "odd" or "" */
+    const char *doc;         /* one line, no trailing period */
+} pkss_param_info;
+
+/** pkss_param_info_init() : zeroes struct_size bytes, sets struct_size. */
+PKSS_API void pkss_param_info_init(pkss_param_info *info, size_t struct_size);
+
+/** pkss_param_count() : @return the number of parameters (pkss_param_at). */
+PKSS_API size_t pkss_param_count(void);
+
+/** pkss_param_at() : describes parameter `index` (0 .. count-1), in the
+ *  order of the pkss_param enum.
+ *  @return PKSS_OK, PKSS_ERR_NULL_ARGUMENT, PKSS_ERR_INVALID_ARGUMENT
+ *          (index out of range or struct_size too small). */
+PKSS_API pkss_status pkss_param_at(size_t index, pkss_param_info *info);
+
+/** pkss_param_find() : the parameter called `name` (as pkss_param_name).
+ *  @return PKSS_OK, PKSS_ERR_NULL_ARGUMENT or PKSS_ERR_UNKNOWN_PARAMETER. */
+PKSS_API pkss_status pkss_param_find(const char *name, pkss_param *param);
+
 /* ===================================================================== */
 /* Devices                                                               */
 /* ===================================================================== */
@@ -311,6 +332,43 @@ PKSS_API pkss_status pkss_device_info(unsigned index, pkss_device_desc *out);
 /** pkss_no_device_reason() : @return a static sentence saying why no
  *  device is listed and how to install one (PoCL on Debian). */
 PKSS_API const char *pkss_no_device_reason(void);
+
+/* ===================================================================== */
+/* Progress                                                              */
+/* ===================================================================== */
+/** The stage a call is in (pkss_progress.stage), in pipeline order. */
+typedef enum pkss_progress_stage {
+    PKSS_PROGRESS_DEVICE = 1,     /* opening the device, building kernels */
+    PKSS_PROGRESS_PREPROCESS = 2, /* validation .. PCA of the clouds */
+    PKSS_PROGRESS_SEARCH = 3,     /* the global search (step: batch) */
+    PKSS_PROGRESS_REFINE = 4,     /* refinement (step: candidate) */
+    PKSS_PROGRESS_DONE = 5        /* the call is about to return */
+} pkss_progress_stage;
+
+/** What the progress callback is told. Library-owned, valid during the
+ *  callback only. */
+typedef struct pkss_progress {
+    size_t struct_size;  /* the library's sizeof(pkss_progress) */
+    int32_t stage;       /* pkss_progress_stage */
+    uint32_t step;       /* work done within the stage ... */
+    uint32_t steps;      /* ... out of this much (0: unknown) */
+    double elapsed;      /* seconds since the call began */
+} pkss_progress;
+
+/** A progress callback: return 0 to go on, anything else to cancel; the
+ *  call then returns PKSS_ERR_CANCELLED promptly (within one refinement
+ *  iteration or search batch) and holds no pose. It runs on the thread
+ *  that made the call, never concurrently, at each stage change and about
+ *  every 20 ms of work (less often only inside a step that cannot be cut,
+ *  such as one kd-tree build). It must not call pkss on the same context. */
+typedef int (*pkss_progress_fn)(void *user_data, const pkss_progress *progress);
+
+/** pkss_context_set_progress() : installs fn (NULL removes it) for the
+ *  calls on ctx that pre-process or register.
+ *  @return PKSS_OK or PKSS_ERR_NULL_ARGUMENT (ctx). */
+PKSS_API pkss_status pkss_context_set_progress(pkss_context *ctx,
+                                               pkss_progress_fn fn,
+                                               void *user_data);
 
 /* ===================================================================== */
 /* Clouds                                                                */
@@ -362,47 +420,34 @@ PKSS_API pkss_status pkss_cloud_points(const pkss_cloud *cloud, double *xyz,
 /* Evaluation                                                            */
 /* ===================================================================== */
 
-/** One candidate pose kept by the search (SPEC 5) and refined (SPEC 6).
- *  Its pose is the search's (Eq. 7-9, unrefined) if refine is off, or if
- *  one of the two best-scored candidates already covered both clouds
- *  (overlap >= 0.98 after its coarse level): the others are then only
- *  scored, not refined.
- *  When the winner of the search covers neither cloud (a part of an object
- *  whose centroid lies beyond the paper's offset grid, or two partial
- *  scans), a second search runs on a wide offset grid (the same
- *  offset_steps^3 offsets at twice the step, +-E/2 along the template's PCA
- *  axes) and its candidates follow the first search's; the winner is the
- *  best of both. The second search scores with a trimmed G: the 80 % of
- *  the matched cells that the pairs' best rotation fits best (the cells
- *  that look into a missing part are left out), so its candidates' score,
- *  score_contour and score_feature are trimmed G values.
- *  Once a fully refined candidate covers both clouds (overlap >= 0.98),
- *  the search's remaining candidates get no full refinement: they are
- *  reported after their coarse level (or at the search's pose, above).
- *  The winner is the fully refined candidate with the highest fit
- *  (pkss_result.candidate_fit: the overlap score within 1 spacing instead
- *  of 2), ties within 0.003 going to the lower rms.
- *  How far each candidate got is in pkss_result.candidate_stage. */
+/** One candidate pose kept by the search (SPEC 5) and refined (SPEC 6);
+ *  read with pkss_context_candidate(). The pipeline that produced it, and
+ *  which candidates get which refinement, is in docs/design.md. */
 typedef struct pkss_candidate {
-    double T_target_source[16]; /* refined pose (see above) */
+    size_t struct_size;         /* set by pkss_candidate_init() */
+    double T_target_source[16]; /* its pose, row-major 4x4 */
     double scale;               /* s of T_target_source */
-    double score;               /* G_K of the search, radians, [0, pi] */
+    double score;               /* G_K of the search, radians, [0, pi]
+                                   (trimmed G for the wide search) */
     double score_contour;       /* G of the contour representatives */
     double score_feature;       /* G of the feature representatives */
     double rms;                 /* RMS of final mutual pairs, target units */
-    double overlap;             /* overlap score in [0, 1]: sqrt(f_s f_t),
-                                   f = share of each cloud's resampled
-                                   points within 2 spacings of the other */
+    double overlap;             /* sqrt(f_s f_t), f = share of each cloud's
+                                   resampled points within 2 spacings of
+                                   the other, in [0, 1] */
+    double fit;                 /* the same within 1 spacing: picks the
+                                   winner among refined candidates */
+    uint32_t stage;             /* pkss_candidate_stage: how far it got */
     uint32_t rotation_index;    /* index into the rotation candidate set */
-    uint32_t offset_index;      /* index into the offset candidate set;
-                                   n_offsets + i: offset i of the wide
-                                   grid (second search) */
+    uint32_t offset_index;      /* index into the offset set of its search */
+    uint32_t search;            /* 0: the paper's offset grid; 1: the wide
+                                   second search */
 } pkss_candidate;
 
-/** How far a candidate's refinement went (pkss_result.candidate_stage). */
+/** How far a candidate's refinement went (pkss_candidate.stage). */
 typedef enum pkss_candidate_stage {
     PKSS_STAGE_SEARCH = 0,  /* the search's pose (Eq. 7-9), scored on all
-                               points: refine off, or left out (above) */
+                               points: refine off, or left out */
     PKSS_STAGE_COARSE = 1,  /* the coarse rigid level (a quarter of the
                                points), then scored on all points */
     PKSS_STAGE_STOPPED = 2, /* full refinement stopped short: projected to
@@ -420,45 +465,58 @@ typedef struct pkss_timings {
     double total;
 } pkss_timings;
 
-/** Everything pkss_register() returns. The caller owns it (stack is fine).
- *  Set struct_size = sizeof(pkss_result) (pkss_result_init does that):
- *  a later library version then writes only the fields this caller knows. */
+/** pkss_result.flags: what the call did that the caller may not expect. */
+typedef enum pkss_result_flag {
+    /* backend AUTO found no usable device (or none matching the device
+     * string) and ran on the reference backend; the reason is in note */
+    PKSS_FLAG_FELL_BACK = 1
+} pkss_result_flag;
+
+/** Everything pkss_register() returns. The caller owns it (stack is fine);
+ *  initialise it with pkss_result_init(&res, sizeof res). */
 typedef struct pkss_result {
-    size_t struct_size;
+    size_t struct_size;         /* set by pkss_result_init() */
     double T_target_source[16]; /* row-major 4x4, upper-left 3x3 = s*R */
     double scale;               /* s > 0 */
     double rotation[9];         /* R, row-major, det +1 */
     double translation[3];      /* t */
-    double score;               /* winner's G_K, radians (smaller = better;
-                                   trimmed if from the second search) */
+    double score;               /* winner's G_K, radians (smaller = better) */
     double rms;                 /* winner's RMS, target units */
     double overlap;             /* winner's overlap score in [0, 1] */
-    uint32_t winner;            /* index of the winner in candidates[] */
-    uint32_t n_candidates;      /* entries used in candidates[] */
-    pkss_candidate candidates[32]; /* PKSS_MAX_CANDIDATES, best score
-                                      first (each search's, see above) */
+    double fit;                 /* winner's fit in [0, 1] (fit <= overlap) */
+    uint32_t winner;            /* the winner's candidate index */
+    uint32_t n_candidates;      /* candidates (pkss_context_candidate) */
     uint32_t n_rotations;       /* rotation candidates searched */
     uint32_t n_offsets;         /* offset candidates per search */
-    uint64_t n_evaluations;     /* shape measurements computed (both
-                                   searches, if a second one ran) */
+    uint64_t n_evaluations;     /* shape measurements computed */
     pkss_counts source_counts;
     pkss_counts target_counts;
     pkss_timings timings;
-    int backend;                /* pkss_backend actually used */
+    int32_t backend;            /* pkss_backend actually used */
+    uint32_t flags;             /* pkss_result_flag bits */
     char device[128];           /* device name (PKSS_NAME_SIZE) */
-    /* Appended (a caller built against an older pkss.h sets a smaller
-     * struct_size and does not receive them): */
-    double fit;                 /* winner's fit in [0, 1]: the overlap score
-                                   within 1 spacing instead of 2, which
-                                   picks the winner among the refined
-                                   candidates (fit <= overlap) */
-    double candidate_fit[32];   /* each candidate's fit, as candidates[] */
-    uint32_t candidate_stage[32]; /* each candidate's pkss_candidate_stage,
-                                     as candidates[] */
+    char note[256];             /* why a flag is set, or "" (PKSS_NOTE_SIZE) */
+    /* EXPERIMENTAL (may change in a 1.x minor release): */
+    double prepare_seconds;     /* device preparation within this call */
 } pkss_result;
 
-/** pkss_result_init() : zeroes *result and sets struct_size. */
-PKSS_API void pkss_result_init(pkss_result *result);
+/** pkss_result_init() : zeroes the struct_size bytes of *result and sets
+ *  result->struct_size; pass sizeof *result. */
+PKSS_API void pkss_result_init(pkss_result *result, size_t struct_size);
+
+/** pkss_candidate_init() : the same for a pkss_candidate. */
+PKSS_API void pkss_candidate_init(pkss_candidate *candidate,
+                                  size_t struct_size);
+
+/** pkss_context_candidate() :
+ *  Candidate `index` (0 .. n_candidates-1, best search score first within
+ *  each search) of the last successful registration on ctx; valid until
+ *  the next registration call on ctx. The winner is result.winner.
+ *  @return PKSS_OK, PKSS_ERR_NULL_ARGUMENT or PKSS_ERR_INVALID_ARGUMENT
+ *          (index out of range, or struct_size too small). */
+PKSS_API pkss_status pkss_context_candidate(const pkss_context *ctx,
+                                            size_t index,
+                                            pkss_candidate *candidate);
 
 /** pkss_register() :
  *  Registers source onto target: finds s, R, t with target ~= s*R*source+t
@@ -466,8 +524,9 @@ PKSS_API void pkss_result_init(pkss_result *result);
  *  only read. Equivalent to creating two clouds and calling
  *  pkss_register_clouds().
  *  @return PKSS_OK and a filled *result, or an error status with the detail
- *          in pkss_context_last_error(); on error *result holds no pose
- *          (n_candidates = 0, T all zero). Blocks until done. */
+ *          in pkss_context_last_error(); on error (a NULL ctx included)
+ *          *result holds no pose (n_candidates = 0, T all zero) and ctx no
+ *          candidates. Blocks until done (see pkss_context_set_progress). */
 PKSS_API pkss_status pkss_register(pkss_context *ctx, const double *source,
                                    size_t n_source, const double *target,
                                    size_t n_target, pkss_result *result);
@@ -482,6 +541,26 @@ PKSS_API pkss_status pkss_register_clouds(pkss_context *ctx,
                                           pkss_result *result);
 
 /* PKSS_CDEF_END */
+
+/* The smallest struct_size pkss_register() accepts: the stable fields of
+ * pkss_result 1.0 (everything before the EXPERIMENTAL block). */
+#define PKSS_RESULT_MIN_SIZE offsetof(pkss_result, prepare_seconds)
+
+/* Array sizes in the declarations above are literals (cffi reads them);
+ * these tie them to their macros. */
+#if defined(__cplusplus)
+#define PKSS_STATIC_ASSERT(c, m) static_assert(c, m)
+#elif defined(__STDC_VERSION__) && __STDC_VERSION__ >= 201112L
+#define PKSS_STATIC_ASSERT(c, m) _Static_assert(c, m)
+#endif
+#ifdef PKSS_STATIC_ASSERT
+PKSS_STATIC_ASSERT(sizeof(((pkss_result *)0)->device) == PKSS_NAME_SIZE,
+                   "pkss_result.device is PKSS_NAME_SIZE");
+PKSS_STATIC_ASSERT(sizeof(((pkss_result *)0)->note) == PKSS_NOTE_SIZE,
+                   "pkss_result.note is PKSS_NOTE_SIZE");
+PKSS_STATIC_ASSERT(sizeof(((pkss_device_desc *)0)->name) == PKSS_NAME_SIZE,
+                   "pkss_device_desc.name is PKSS_NAME_SIZE");
+#endif
 
 #ifdef __cplusplus
 }

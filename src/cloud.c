@@ -7,10 +7,23 @@
 
 #include <float.h>
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #define PKSS_KNN_K 12
+/* Validation judges the shape on the points within this many median radii
+ * of the median point: a sentinel or a stray point far away must not make
+ * an object look collinear (culling removes such points later), while no
+ * real object or scan has its median radius 100 times below its extent. */
+#define PKSS_CORE_RADII 100.0
+/* The median point and radius are estimated on at most this many evenly
+ * spaced points (exact for smaller clouds). */
+#define PKSS_CORE_SAMPLE 4096
+/* Coordinates below this magnitude would underflow the variance (squares
+ * of 1e-154 are denormal), above 1e150 overflow it. */
+#define PKSS_MIN_MAGNITUDE 1e-150
+#define PKSS_MAX_MAGNITUDE 1e150
 
 void pkss_cloud_destroy(pkss_cloud *cloud)
 {
@@ -24,18 +37,34 @@ void pkss_cloud_destroy(pkss_cloud *cloud)
     pkss__free(cloud);
 }
 
-/* Mean and covariance eigen-decomposition of n points. */
-static void covariance(const double *xyz, size_t n, double *mean, double *w,
-                       double *V)
+static double dist2(const double *a, const double *b)
 {
+    return (a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) +
+           (a[2] - b[2]) * (a[2] - b[2]);
+}
+
+/* Mean and covariance eigen-decomposition of the points within sqrt(lim2)
+ * of c (all points for lim2 = INFINITY); returns how many those are. */
+static size_t covariance_within(const double *xyz, size_t n, const double *c,
+                                double lim2, double *mean, double *w, double *V)
+{
+    static const double origin[3] = {0, 0, 0};
+    if (!c)
+        c = origin;
     double m[3] = {0, 0, 0};
+    size_t k = 0;
     for (size_t i = 0; i < n; ++i)
-        for (int d = 0; d < 3; ++d)
-            m[d] += xyz[3 * i + d];
+        if (dist2(xyz + 3 * i, c) <= lim2) {
+            for (int d = 0; d < 3; ++d)
+                m[d] += xyz[3 * i + d];
+            ++k;
+        }
     for (int d = 0; d < 3; ++d)
-        m[d] /= (double)n;
+        m[d] /= (double)k;
     double C[9] = {0};
     for (size_t i = 0; i < n; ++i) {
+        if (!(dist2(xyz + 3 * i, c) <= lim2))
+            continue;
         double x = xyz[3 * i] - m[0], y = xyz[3 * i + 1] - m[1],
                z = xyz[3 * i + 2] - m[2];
         C[0] += x * x; C[1] += x * y; C[2] += x * z;
@@ -43,20 +72,58 @@ static void covariance(const double *xyz, size_t n, double *mean, double *w,
     }
     C[3] = C[1]; C[6] = C[2]; C[7] = C[5];
     for (int i = 0; i < 9; ++i)
-        C[i] /= (double)n;
+        C[i] /= (double)k;
     pkss__eig_sym3(C, w, V);
     if (mean)
         memcpy(mean, m, sizeof m);
+    return k;
+}
+
+/* Mean and covariance eigen-decomposition of n points. */
+static void covariance(const double *xyz, size_t n, double *mean, double *w,
+                       double *V)
+{
+    covariance_within(xyz, n, NULL, INFINITY, mean, w, V);
+}
+
+static int cmp_dbl(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* The median point (coordinate-wise) and the median distance to it, on an
+ * evenly spaced sample; 0 when out of memory (the caller then judges all
+ * points). */
+static int median_core(const double *xyz, size_t n, double c[3], double *radius)
+{
+    size_t k = n < PKSS_CORE_SAMPLE ? n : PKSS_CORE_SAMPLE;
+    double *v = pkss__malloc(k * sizeof(double));
+    if (!v)
+        return 0;
+    for (int d = 0; d < 3; ++d) {
+        for (size_t i = 0; i < k; ++i)
+            v[i] = xyz[3 * (i * n / k) + d];
+        qsort(v, k, sizeof(double), cmp_dbl);
+        c[d] = v[k / 2];
+    }
+    for (size_t i = 0; i < k; ++i) {
+        const double *q = xyz + 3 * (i * n / k);
+        v[i] = sqrt((q[0] - c[0]) * (q[0] - c[0]) + (q[1] - c[1]) * (q[1] - c[1]) +
+                    (q[2] - c[2]) * (q[2] - c[2]));
+    }
+    qsort(v, k, sizeof(double), cmp_dbl);
+    *radius = v[k / 2];
+    pkss__free(v);
+    return 1;
 }
 
 /* SPEC 1: identical, collinear or coplanar "to the point that PCA or the
  * cell partition is undefined": relative variance below 1e-12 (a thickness
  * of 1e-6 of the extent). */
-static pkss_status check_shape(pkss_context *ctx, const double *xyz, size_t n,
-                               const char *which, const char *stage)
+static pkss_status shape_verdict(pkss_context *ctx, const double w[3], size_t n,
+                                 const char *which, const char *stage)
 {
-    double w[3], V[9];
-    covariance(xyz, n, NULL, w, V);
     PKSS_RETURN_IF(!(w[0] > 0.0), ctx, PKSS_ERR_DEGENERATE,
                    "%s cloud: all %zu points%s are identical", which, n, stage);
     PKSS_RETURN_IF(w[1] <= 1e-12 * w[0], ctx, PKSS_ERR_DEGENERATE,
@@ -67,10 +134,35 @@ static pkss_status check_shape(pkss_context *ctx, const double *xyz, size_t n,
     return PKSS_OK;
 }
 
-/* SPEC 1: validation. Copies the finite points into *out. */
+static pkss_status check_shape(pkss_context *ctx, const double *xyz, size_t n,
+                               const char *which, const char *stage)
+{
+    double w[3], V[9];
+    covariance(xyz, n, NULL, w, V);
+    return shape_verdict(ctx, w, n, which, stage);
+}
+
+/* The shape verdict of validation, on the points within PKSS_CORE_RADII
+ * median radii of the median point (all of them if out of memory). */
+static pkss_status check_core_shape(pkss_context *ctx, const double *xyz,
+                                    size_t n, const char *which)
+{
+    double c[3], r, w[3], V[9];
+    double lim2 = INFINITY;
+    if (median_core(xyz, n, c, &r) && r > 0)
+        lim2 = (PKSS_CORE_RADII * r) * (PKSS_CORE_RADII * r);
+    size_t k = covariance_within(xyz, n, c, lim2, NULL, w, V);
+    char stage[96] = "";
+    if (k < n)
+        snprintf(stage, sizeof stage, " (of %zu, %zu far points left out)", n, n - k);
+    return shape_verdict(ctx, w, k, which, stage);
+}
+
+/* SPEC 1: validation. The finite points are *out: a copy (*owned), or the
+ * caller's array itself when it is huge and all finite (*owned NULL). */
 static pkss_status validate(pkss_context *ctx, const double *xyz, size_t n,
-                            const char *which, double **out, size_t *n_out,
-                            uint64_t *nonfinite)
+                            const char *which, const double **out,
+                            double **owned, size_t *n_out, uint64_t *nonfinite)
 {
     const pkss__params *p = &ctx->params;
     PKSS_RETURN_IF(!xyz, ctx, PKSS_ERR_NULL_ARGUMENT,
@@ -109,23 +201,33 @@ static pkss_status validate(pkss_context *ctx, const double *xyz, size_t n,
                    which, finite, p->min_points);
     /* Squares of 1e150 overflow double; far below that float32 work after
      * centring and normalising is safe. */
-    PKSS_RETURN_IF(maxabs > 1e150, ctx, PKSS_ERR_OUT_OF_RANGE,
-                   "%s cloud: coordinate magnitude %g is too large (limit 1e150)",
-                   which, maxabs);
-    double *pts = pkss__malloc(finite * 3 * sizeof(double));
-    PKSS_RETURN_IF(!pts, ctx, PKSS_ERR_OUT_OF_MEMORY,
-                   "out of memory copying %zu %s points", finite, which);
-    size_t k = 0;
-    for (size_t i = 0; i < n; ++i) {
-        const double *q = xyz + 3 * i;
-        if (!isfinite(q[0]) || !isfinite(q[1]) || !isfinite(q[2]))
-            continue;
-        memcpy(pts + 3 * k++, q, 3 * sizeof(double));
+    PKSS_RETURN_IF(maxabs > PKSS_MAX_MAGNITUDE, ctx, PKSS_ERR_OUT_OF_RANGE,
+                   "%s cloud: coordinate magnitude %g is too large (limit %g)",
+                   which, maxabs, PKSS_MAX_MAGNITUDE);
+    PKSS_RETURN_IF(maxabs > 0 && maxabs < PKSS_MIN_MAGNITUDE, ctx, PKSS_ERR_OUT_OF_RANGE,
+                   "%s cloud: coordinate magnitude %g is too small (limit %g): "
+                   "rescale the input",
+                   which, maxabs, PKSS_MIN_MAGNITUDE);
+    /* A huge input with every point finite is read where it lies: thinning
+     * (SPEC 2.1) makes its first copy, of about max_raw_points points. */
+    double *pts = NULL;
+    if (bad || finite <= (size_t)p->max_raw_points) {
+        pts = pkss__malloc(finite * 3 * sizeof(double));
+        PKSS_RETURN_IF(!pts, ctx, PKSS_ERR_OUT_OF_MEMORY,
+                       "out of memory copying %zu %s points", finite, which);
+        size_t k = 0;
+        for (size_t i = 0; i < n; ++i) {
+            const double *q = xyz + 3 * i;
+            if (!isfinite(q[0]) || !isfinite(q[1]) || !isfinite(q[2]))
+                continue;
+            memcpy(pts + 3 * k++, q, 3 * sizeof(double));
+        }
     }
+    const double *use = pts ? pts : xyz;
     /* Extent too small for the magnitude (e.g. georeferenced coordinates
      * with micrometre spread): the shape is lost in rounding. */
     double w[3], V[9], mean[3];
-    covariance(pts, finite, mean, w, V);
+    covariance(use, finite, mean, w, V);
     double spread = sqrt(w[0] > 0 ? w[0] : 0.0);
     if (!(spread > 1e-9 * maxabs) && w[0] > 0) {
         pkss__free(pts);
@@ -134,12 +236,13 @@ static pkss_status validate(pkss_context *ctx, const double *xyz, size_t n,
                           "coordinates (magnitude %g)",
                           which, spread, maxabs);
     }
-    pkss_status st = check_shape(ctx, pts, finite, which, "");
+    pkss_status st = check_core_shape(ctx, use, finite, which);
     if (st != PKSS_OK) {
         pkss__free(pts);
         return st;
     }
-    *out = pts;
+    *out = use;
+    *owned = pts;
     *n_out = finite;
     return PKSS_OK;
 }
@@ -180,7 +283,8 @@ static int cmp_double(const void *a, const void *b)
  * nearest neighbours (self excluded); P' = the top feature_frac by D_pca.
  * Also keeps that plane's normal at every point (the refinement's
  * point-to-plane stage, icp.c) and the median nearest-neighbour spacing. */
-static pkss_status features_and_spacing(pkss_cloud *c, double frac)
+static pkss_status features_and_spacing(pkss_cloud *c, double frac,
+                                        pkss__run *run)
 {
     size_t m = c->m, k = m - 1 < PKSS_KNN_K ? m - 1 : PKSS_KNN_K;
     uint32_t *idx = pkss__malloc(m * k * sizeof(uint32_t));
@@ -194,6 +298,10 @@ static pkss_status features_and_spacing(pkss_cloud *c, double frac)
     }
     pkss__knn_all(c->tree, c->pre, m, k, idx, d2);
     for (size_t i = 0; i < m; ++i) {
+        if (i % 1024 == 0 && pkss__tick(run) != PKSS_OK) {
+            pkss__free(idx); pkss__free(d2); pkss__free(ds); pkss__free(nn);
+            return PKSS_ERR_CANCELLED;
+        }
         nn[i] = sqrt(d2[k * i]);
         double nb[3 * PKSS_KNN_K];
         for (size_t j = 0; j < k; ++j)
@@ -213,7 +321,9 @@ static pkss_status features_and_spacing(pkss_cloud *c, double frac)
     c->spacing = nn[m / 2];
     qsort(ds, m, sizeof(dsort), cmp_desc);
     size_t nf = (size_t)ceil(frac * (double)m);
-    if (nf < 1) nf = 1;
+    /* G_f needs PKSS_MIN_MATCHED matched cells (Eq. 7_3), so as many feature
+     * points at least: fewer would void every candidate. */
+    if (nf < PKSS_MIN_MATCHED) nf = PKSS_MIN_MATCHED;
     if (nf > m) nf = m;
     c->feat = pkss__malloc(nf * sizeof(uint32_t));
     if (!c->feat) {
@@ -303,9 +413,10 @@ pkss_status pkss__cloud_build(pkss_context *ctx, const double *xyz, size_t n,
     pkss_cloud *c = pkss__calloc(1, sizeof *c);
     PKSS_RETURN_IF(!c, ctx, PKSS_ERR_OUT_OF_MEMORY, "out of memory");
     c->counts.input = n;
+    const double *in = NULL;
     double *pts = NULL;
     size_t np = 0;
-    pkss_status st = validate(ctx, xyz, n, which, &pts, &np, &c->counts.nonfinite);
+    pkss_status st = validate(ctx, xyz, n, which, &in, &pts, &np, &c->counts.nonfinite);
     if (st != PKSS_OK) {
         pkss_cloud_destroy(c);
         return st;
@@ -314,6 +425,24 @@ pkss_status pkss__cloud_build(pkss_context *ctx, const double *xyz, size_t n,
     c->validate_seconds = t1 - t0;
     unsigned char *keep = NULL;
     uint32_t *sel = NULL;
+    /* progress between the steps below; cancelled: stop at the next one */
+#define STEP(k)                                                                \
+    do {                                                                       \
+        if (pkss__checkpoint(ctx->run, PKSS_PROGRESS_PREPROCESS, (k), 6)) {    \
+            st = pkss__cancel_fail(ctx);                                       \
+            goto fail;                                                         \
+        }                                                                      \
+    } while (0)
+    STEP(0);
+    /* SPEC 2.1: a huge input that validation left where it lies is thinned
+     * from there (one cloud's copy is then ~max_raw_points, not n). Each
+     * voxel keeps one point, so exact duplicates go with the thinning. */
+    if (!pts) {
+        st = pkss__thin_voxel(in, np, (size_t)p->max_raw_points,
+                              (uint64_t)p->seed, &pts, &np);
+        if (st != PKSS_OK)
+            goto oom;
+    }
 
     /* Exact duplicates carry no shape and defeat the kNN statistics of the
      * outlier filters (see dedupe.c). */
@@ -337,7 +466,9 @@ pkss_status pkss__cloud_build(pkss_context *ctx, const double *xyz, size_t n,
         goto fail;
     }
 
-    /* SPEC 2.1: thin huge inputs first. */
+    STEP(1);
+    /* SPEC 2.1: a huge input copied by validation (it had non-finite
+     * points to drop) is thinned here, after its duplicates went. */
     if (np > (size_t)p->max_raw_points) {
         double *thin = NULL;
         size_t nt = 0;
@@ -355,6 +486,7 @@ pkss_status pkss__cloud_build(pkss_context *ctx, const double *xyz, size_t n,
     /* Both steps use the 12-NN graph: the statistical filter takes mutual
      * culling's, carried over to the survivors (only rows that lost a
      * neighbour are recomputed). */
+    STEP(2);
     pkss__knn_graph graph = {0, 0, NULL, NULL};
     if (p->cull_mutual && np > PKSS_KNN_K + 1) {
         st = pkss__cull_mutual(pts, np, PKSS_KNN_K, keep, &graph);
@@ -387,6 +519,7 @@ pkss_status pkss__cloud_build(pkss_context *ctx, const double *xyz, size_t n,
         goto fail;
     }
 
+    STEP(3);
     /* SPEC 2.4: farthest-point resampling to m points. */
     size_t m = 0;
     sel = pkss__malloc(((size_t)p->points < np ? (size_t)p->points : np) * sizeof(uint32_t));
@@ -425,10 +558,16 @@ pkss_status pkss__cloud_build(pkss_context *ctx, const double *xyz, size_t n,
         for (int d = 0; d < 3; ++d)
             c->pre[3 * i + d] = (c->pre[3 * i + d] - mean[d]) / c->sigma;
 
+    STEP(4);
     st = pkss__kdtree_build(c->pre, m, &c->tree);
     if (st != PKSS_OK)
         goto oom;
-    st = features_and_spacing(c, p->feature_frac);
+    STEP(5);
+    st = features_and_spacing(c, p->feature_frac, ctx->run);
+    if (st == PKSS_ERR_CANCELLED) {
+        st = pkss__cancel_fail(ctx);
+        goto fail;
+    }
     if (st != PKSS_OK)
         goto oom;
     c->counts.features = p->use_features ? c->n_feat : 0;
@@ -436,6 +575,7 @@ pkss_status pkss__cloud_build(pkss_context *ctx, const double *xyz, size_t n,
     if (st != PKSS_OK)
         goto oom;
     pca_frame(c);
+#undef STEP
     c->prep_seconds = pkss__now() - t1;
     pkss__free(pts);
     pkss__free(keep);
@@ -464,7 +604,12 @@ pkss_status pkss_cloud_create(pkss_context *ctx, const double *xyz, size_t n,
     PKSS_RETURN_IF(!ctx, NULL, PKSS_ERR_NULL_ARGUMENT, "ctx is NULL");
     pkss__clear_error(ctx);
     PKSS_RETURN_IF(!out, ctx, PKSS_ERR_NULL_ARGUMENT, "out is NULL");
-    return pkss__cloud_build(ctx, xyz, n, "input", out);
+    pkss__run run_state;
+    pkss__run_begin(ctx, &run_state);
+    pkss_status st = pkss__cloud_build(ctx, xyz, n, "input", out);
+    pkss__checkpoint(ctx->run, PKSS_PROGRESS_DONE, 1, 1);
+    pkss__run_end(ctx);
+    return st;
 }
 
 pkss_status pkss_cloud_counts(const pkss_cloud *cloud, pkss_counts *out)

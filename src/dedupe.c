@@ -1,5 +1,6 @@
 /* SPDX-License-Identifier: MIT
- * dedupe.c -- removes exact duplicate points before anything else.
+ * dedupe.c -- removes exact duplicate points right after validation (a huge
+ * input is voxel-thinned first, which keeps one point per voxel anyway).
  *
  * Scanners write stacks of identical records (e.g. the small_gicp LiDAR
  * scans hold ~5000 "no return" points at exactly (0,0,0), 7 % of the file)

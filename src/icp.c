@@ -74,6 +74,7 @@ void pkss__icp_view_full(const pkss_cloud *c, pkss__icp_view *v)
     v->tree = c->tree;
     v->normal = c->normal;
     v->spacing = c->spacing;
+    v->run = NULL;
 }
 
 void pkss__icp_view_coarse(const pkss_cloud *c, pkss__icp_view *v)
@@ -83,6 +84,7 @@ void pkss__icp_view_coarse(const pkss_cloud *c, pkss__icp_view *v)
     v->tree = c->tree_coarse;
     v->normal = c->normal; /* the coarse view is a prefix of the points */
     v->spacing = c->spacing_coarse;
+    v->run = NULL;
 }
 
 static void transform_point(const pkss__pose *T, const double *x, double *y)
@@ -589,6 +591,10 @@ pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
     int n_ring = 0, ring_stage = 0;
     int it;
     for (it = 0; it < sched->max_iters; ++it) {
+        if (pkss__tick(src->run) != PKSS_OK) {
+            work_free(&w);
+            return PKSS_ERR_CANCELLED;
+        }
         int scale_stage = sched->free_scale && it >= sched->rigid_iters;
         if (sched->free_scale && it == sched->rigid_iters && gate < ICP_GATE_SCALE_START * h)
             gate = ICP_GATE_SCALE_START * h; /* reopen for the free scale */

@@ -20,7 +20,7 @@
  * become one leaf sorted by index, read only as far as it can still
  * contribute, so a stack of D copies costs O(k) per query, not O(D).
  *
- * See README "Design" for why this and not nanoflann (C++) behind a shim.
+ * docs/tuning.md (PKSS_KD_LEAF) says why this and not nanoflann (C++).
  */
 #include "pkss_internal.h"
 

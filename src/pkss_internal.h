@@ -8,7 +8,9 @@
 #include "pkss.h"
 #include "pkss_shared.h" /* PKSS_EDGES_SIZE, the shared search definitions */
 
+#include <pthread.h>
 #include <stdarg.h>
+#include <stdatomic.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -43,6 +45,17 @@ void pkss__params_default(pkss__params *p);
 /* ------------------------------------------------------------- context */
 struct pkss__device; /* OpenCL state, device.c / evaluate_cl.c */
 
+/* One call's progress and cancellation state (progress.c). */
+typedef struct pkss__run {
+    pkss_progress_fn fn;
+    void *user;
+    pthread_t caller;          /* the only thread that calls fn */
+    double t0, last_call;
+    int stage;                 /* as last reported, with its step */
+    uint32_t step, steps;
+    atomic_int cancelled;      /* read by every thread of the call */
+} pkss__run;
+
 struct pkss_context {
     pkss__params params;
     char *device_request;      /* PKSS_PARAM_DEVICE string, or NULL */
@@ -51,7 +64,35 @@ struct pkss_context {
     int prepared;              /* prepare() succeeded for current settings */
     int backend_in_use;        /* pkss_backend resolved by prepare() */
     struct pkss__device *dev;  /* NULL for the reference backend */
+    char fallback_note[PKSS_NOTE_SIZE]; /* why AUTO fell back, or "" */
+    pkss_progress_fn progress_fn;
+    void *progress_user;
+    pkss__run *run;            /* the call under way, or NULL */
+    pkss_candidate candidates[PKSS_MAX_CANDIDATES]; /* last registration */
+    size_t n_candidates;
 };
+
+/* Progress and cancellation (progress.c). */
+void pkss__run_begin(pkss_context *ctx, pkss__run *run);
+void pkss__run_end(pkss_context *ctx);
+int pkss__cancelled(const pkss__run *run);
+/* Calls the progress callback when due (calling thread only); returns
+ * PKSS_ERR_CANCELLED once a callback asked to stop. */
+pkss_status pkss__checkpoint(pkss__run *run, int stage, uint32_t step,
+                             uint32_t steps);
+/* The same within the current stage and step (inner loops), from any
+ * thread: only the caller's invokes the callback. */
+pkss_status pkss__tick(pkss__run *run);
+pkss_status pkss__cancel_fail(pkss_context *ctx);
+
+/* Public struct growth (abi.c). */
+void pkss__struct_init(void *p, size_t struct_size);
+void pkss__deliver_result(pkss_result *dst, const pkss_result *src);
+void pkss__clear_result(pkss_result *dst);
+void pkss__deliver_candidate(pkss_candidate *dst, const pkss_candidate *src);
+void pkss__deliver_param_info(pkss_param_info *dst, const pkss_param_info *src);
+/* 1 when the field tables name every field of their structs (tests). */
+int pkss__abi_tables_complete(void);
 
 /* Records a formatted detail in ctx (if not NULL) and returns status. */
 pkss_status pkss__fail(pkss_context *ctx, pkss_status status, const char *fmt,
@@ -82,7 +123,7 @@ void *pkss__calloc(size_t count, size_t size);
 void *pkss__realloc(void *ptr, size_t size);
 void pkss__free(void *ptr);
 /* Test hook: fail every allocation after `budget` more succeed; -1 = never. */
-PKSS_API void pkss__test_set_alloc_budget(long long budget);
+void pkss__test_set_alloc_budget(long long budget);
 
 /* --------------------------------------------------------------- time */
 double pkss__now(void);
@@ -325,6 +366,7 @@ typedef struct pkss__icp_view {
     const pkss__kdtree *tree;
     const double *normal; /* unit normal at each point (cloud.c) */
     double spacing;  /* median NN spacing h of this view */
+    pkss__run *run;  /* the call's cancellation state, or NULL */
 } pkss__icp_view;
 
 void pkss__icp_view_full(const pkss_cloud *c, pkss__icp_view *v);

@@ -4,6 +4,7 @@
  * centre offsets, top-k selection, overlap-aware refinement, and the
  * composition of the winner back into the caller's coordinates.
  */
+#define _POSIX_C_SOURCE 200809L /* clock_gettime */
 #include "pkss_internal.h"
 #include "pkss_shared.h"
 
@@ -11,6 +12,7 @@
 #include <pthread.h>
 #include <stdio.h>
 #include <string.h>
+#include <time.h>
 
 /* Candidates refined at full resolution (by coarse overlap). */
 #define PKSS_FULL_REFINE 3
@@ -53,14 +55,6 @@
  * now takes another path); real pairs unchanged (51/54); median time in
  * one A/B run: combined +9 %, missing -5 %, real pairs +-0. */
 #define PKSS_PART_COVERED 0.9
-
-void pkss_result_init(pkss_result *result)
-{
-    if (!result)
-        return;
-    memset(result, 0, sizeof *result);
-    result->struct_size = sizeof *result;
-}
 
 /* Eq. 7: the local rotation O_r of a kept candidate, from the matched
  * contour representatives in the candidate's frame (host side, double). */
@@ -149,22 +143,36 @@ static pkss_status check_result_arg(pkss_context *ctx, pkss_result *result)
 {
     PKSS_RETURN_IF(!result, ctx, PKSS_ERR_NULL_ARGUMENT, "result is NULL");
     PKSS_RETURN_IF(result->struct_size == 0, ctx, PKSS_ERR_INVALID_ARGUMENT,
-                   "result->struct_size is 0: call pkss_result_init(&result) first");
-    PKSS_RETURN_IF(result->struct_size < offsetof(pkss_result, candidates), ctx,
+                   "result->struct_size is 0: call pkss_result_init(&result, sizeof result) first");
+    PKSS_RETURN_IF(result->struct_size < PKSS_RESULT_MIN_SIZE, ctx,
                    PKSS_ERR_INVALID_ARGUMENT,
-                   "result->struct_size %zu is smaller than any released pkss_result",
-                   result->struct_size);
+                   "result->struct_size %zu is smaller than pkss_result 1.0 (%zu): "
+                   "call pkss_result_init(&result, sizeof result)",
+                   result->struct_size, (size_t)PKSS_RESULT_MIN_SIZE);
     return PKSS_OK;
 }
 
-/* Copies the filled result into the caller's struct, only as many bytes as
- * the caller's struct_size says (ABI growth, STYLE guideline 5). */
-static void deliver(pkss_result *dst, const pkss_result *src)
+/* A registration's whole outcome, library-sized: the caller receives the
+ * fields its struct_size covers, the context keeps the candidates. */
+typedef struct outcome {
+    pkss_result res;
+    pkss_candidate cand[PKSS_MAX_CANDIDATES];
+} outcome;
+
+static void deliver(pkss_context *ctx, pkss_result *dst, const outcome *o)
 {
-    size_t n = dst->struct_size < sizeof *src ? dst->struct_size : sizeof *src;
-    size_t keep = dst->struct_size;
-    memcpy(dst, src, n);
-    dst->struct_size = keep;
+    pkss__deliver_result(dst, &o->res);
+    memcpy(ctx->candidates, o->cand, sizeof o->cand);
+    ctx->n_candidates = o->res.n_candidates;
+}
+
+/* A failed call: no pose in the result, no candidates in the context. */
+static void clear_result(pkss_context *ctx, pkss_result *result)
+{
+    if (ctx)
+        ctx->n_candidates = 0;
+    if (result && result->struct_size >= PKSS_RESULT_MIN_SIZE)
+        pkss__clear_result(result);
 }
 
 /* Per-candidate work of the refinement that is independent across
@@ -254,6 +262,13 @@ static pkss_status fail_oom(pkss_context *ctx)
                       "out of memory during the search/refinement");
 }
 
+/* A step of the search or refinement failed with st: cancelled, or out of
+ * memory (their only failures). */
+static pkss_status fail_step(pkss_context *ctx, pkss_status st)
+{
+    return st == PKSS_ERR_CANCELLED ? pkss__cancel_fail(ctx) : fail_oom(ctx);
+}
+
 /* The candidates of a registration, of one search or two (run): the second
  * search's follow the first's, so one index names a candidate in every
  * array and in pkss_result.candidates. */
@@ -332,23 +347,29 @@ static pkss_status search_pass(pkss_context *ctx, const pkss_cloud *src,
     const size_t base = cs->n;
     size_t total = rot->n_rotations * (size_t)n_off;
     double t0 = pkss__now();
-    pkss_status st = PKSS_OK;
+    pkss_status st = PKSS_ERR_OUT_OF_MEMORY;
     float *scores = pkss__malloc(total * sizeof(float));
     float *gc = pkss__malloc(total * sizeof(float));
     float *gf = pkss__malloc(total * sizeof(float));
     if (!scores || !gc || !gf)
-        goto oom;
+        goto fail;
+    if ((st = pkss__checkpoint(ctx->run, PKSS_PROGRESS_SEARCH, 0, 1)) != PKSS_OK)
+        goto fail;
     if (ctx->backend_in_use == PKSS_BACKEND_OPENCL)
         st = pkss__search_cl(ctx, in, scores, gc, gf);
     else
         st = pkss__search_ref(ctx, in, scores, gc, gf);
     if (st != PKSS_OK)
         goto done;
+    if ((st = pkss__checkpoint(ctx->run, PKSS_PROGRESS_SEARCH, 1, 1)) != PKSS_OK)
+        goto fail;
     pkss__pick *picks = cs->picks + base;
     size_t kept = pkss__select_top_k(scores, gc, p->use_features ? gf : NULL,
                                      rot, (size_t)n_off, top_k, picks);
-    if (kept == SIZE_MAX)
-        goto oom;
+    if (kept == SIZE_MAX) {
+        st = PKSS_ERR_OUT_OF_MEMORY;
+        goto fail;
+    }
     cs->n = base + kept;
     double t1 = pkss__now();
     cs->search_seconds += t1 - t0;
@@ -403,6 +424,8 @@ static pkss_status search_pass(pkss_context *ctx, const pkss_cloud *src,
      * both clouds (PKSS_COARSE_COMPLETE), no other can beat its overlap by
      * more than 0.02, so the rest are only scored at the search's pose. */
     size_t wave = kept < 2 ? kept : 2;
+    if ((st = pkss__checkpoint(ctx->run, PKSS_PROGRESS_REFINE, 0, (uint32_t)kept)) != PKSS_OK)
+        goto fail;
     cw.n_list = wave;
     for_each_candidate(&cw);
     double wave_best = 0.0;
@@ -421,8 +444,8 @@ static pkss_status search_pass(pkss_context *ctx, const pkss_cloud *src,
         for_each_candidate(&rest);
     }
     for (size_t c = 0; c < kept; ++c)
-        if (cst[c] != PKSS_OK)
-            goto oom;
+        if ((st = cst[c]) != PKSS_OK)
+            goto fail;
     if (p->refine) {
         /* candidates by coarse overlap, best first (stable) */
         for (size_t i = 1; i < kept; ++i) {
@@ -448,6 +471,10 @@ static pkss_status search_pass(pkss_context *ctx, const pkss_cloud *src,
         double lead_overlap = lead_in, lead_here = 0.0;
         for (size_t i = 0; i < kept; ++i) {
             int c = order[i];
+            st = pkss__checkpoint(ctx->run, PKSS_PROGRESS_REFINE, (uint32_t)i,
+                                  (uint32_t)kept);
+            if (st != PKSS_OK)
+                goto fail;
             /* Past the top few, a candidate is refined too while its
              * coarse overlap is at least the refined leader's: it may
              * still win. Where the leader explains both clouds (complete
@@ -500,7 +527,7 @@ static pkss_status search_pass(pkss_context *ctx, const pkss_cloud *src,
                     fmax(fs, ft) < PKSS_PART_COVERED) {
                     st = search_scale(v, &scaled);
                     if (st != PKSS_OK)
-                        goto oom;
+                        goto fail;
                     /* The coverages at the searched scale tell a part from
                      * a whole better than those at the pre-shape ratio: a
                      * part 20-30 % too large overhangs the whole and covers
@@ -516,7 +543,7 @@ static pkss_status search_pass(pkss_context *ctx, const pkss_cloud *src,
                 st = pkss__icp_run(&v->sv, &v->tv, &sched, &start, &cs->basins,
                                    (int)(base + (size_t)c), &ir[c]);
                 if (st != PKSS_OK)
-                    goto oom;
+                    goto fail;
                 if (ir[c].duplicate_of >= 0 || ir[c].abandoned) {
                     stage[c] = PKSS_STAGE_STOPPED;
                     /* reached a refined candidate's rigid minimum or final
@@ -543,14 +570,14 @@ static pkss_status search_pass(pkss_context *ctx, const pkss_cloud *src,
         cw.n_list = n_rest;
         for_each_candidate(&cw);
         for (size_t i = 0; i < n_rest; ++i)
-            if (cst[list[i]] != PKSS_OK)
-                goto oom;
+            if ((st = cst[list[i]]) != PKSS_OK)
+                goto fail;
     }
     cs->refine_seconds += pkss__now() - t1;
     goto done;
 
-oom:
-    st = fail_oom(ctx);
+fail:
+    st = fail_step(ctx, st);
 done:
     pkss__free(scores);
     pkss__free(gc);
@@ -585,9 +612,23 @@ static int pick_winner(const cand_set *cs)
     return best;
 }
 
-static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
-                       const pkss_cloud *tgt, pkss_result *res)
+/* The device, if not prepared yet (PKSS_PROGRESS_DEVICE), timed. */
+static pkss_status prepare_device(pkss_context *ctx, outcome *out)
 {
+    if (ctx->prepared)
+        return PKSS_OK;
+    PKSS_FORWARD(pkss__checkpoint(ctx->run, PKSS_PROGRESS_DEVICE, 0, 1) == PKSS_OK
+                     ? PKSS_OK : pkss__cancel_fail(ctx));
+    double t0 = pkss__now();
+    pkss_status st = pkss_context_prepare(ctx);
+    out->res.prepare_seconds += pkss__now() - t0;
+    return st;
+}
+
+static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
+                       const pkss_cloud *tgt, outcome *out)
+{
+    pkss_result *res = &out->res;
     const pkss__params *p = &ctx->params;
     pkss_status st = PKSS_OK;
     double t0 = pkss__now();
@@ -608,6 +649,7 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
     pkss__icp_view_full(tgt, &v.tv);
     pkss__icp_view_coarse(src, &v.svc);
     pkss__icp_view_coarse(tgt, &v.tvc);
+    v.sv.run = v.tv.run = v.svc.run = v.tvc.run = ctx->run;
     const int n_off = ss->n_offsets;
     const size_t n_eval = ss->rot.n_rotations * (size_t)n_off;
     st = search_pass(ctx, src, tgt, ss, &v, (size_t)p->top_k, 0.0, cs);
@@ -679,7 +721,7 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
         double t3 = pkss__now();
         st = pkss__icp_slide_search(&v.sv, &v.tv, PKSS_OVERLAP_TIE, &cs->ir[best]);
         if (st != PKSS_OK) {
-            st = fail_oom(ctx);
+            st = fail_step(ctx, st);
             goto done;
         }
         cs->refine_seconds += pkss__now() - t3;
@@ -689,7 +731,8 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
 
     for (size_t c = 0; c < cs->n; ++c) {
         const pkss__pick *pk = &cs->picks[c];
-        pkss_candidate *cand = &res->candidates[c];
+        pkss_candidate *cand = &out->cand[c];
+        cand->struct_size = sizeof *cand;
         compose(src, tgt, &cs->ir[c].pose, cand->T_target_source,
                 &cand->scale, NULL, NULL);
         cand->score = pk->score;
@@ -697,20 +740,20 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
         cand->score_feature = pk->g_feature;
         cand->rms = cs->ir[c].rms * tgt->sigma;
         cand->overlap = cs->ir[c].overlap;
-        res->candidate_fit[c] = cs->ir[c].fit;
-        res->candidate_stage[c] = cs->stage[c];
+        cand->fit = cs->ir[c].fit;
+        cand->stage = cs->stage[c];
         cand->rotation_index = pk->rotation;
-        /* the wide grid's offsets follow the paper grid's */
-        cand->offset_index = pk->offset + (c < n_first ? 0u : (uint32_t)n_off);
+        cand->offset_index = pk->offset;
+        cand->search = c < n_first ? 0u : 1u;
     }
     compose(src, tgt, &cs->ir[best].pose, res->T_target_source, &res->scale,
             res->rotation, res->translation);
     res->n_candidates = (uint32_t)cs->n;
     res->winner = (uint32_t)best;
-    res->score = res->candidates[best].score;
-    res->rms = res->candidates[best].rms;
-    res->overlap = res->candidates[best].overlap;
-    res->fit = res->candidate_fit[best];
+    res->score = out->cand[best].score;
+    res->rms = out->cand[best].rms;
+    res->overlap = out->cand[best].overlap;
+    res->fit = out->cand[best].fit;
     res->timings.search = cs->search_seconds;
     res->timings.refine = cs->refine_seconds;
 
@@ -724,53 +767,55 @@ done:
 /* Runs the search and refinement into a library-sized result; the caller
  * delivers it. */
 static pkss_status register_into(pkss_context *ctx, const pkss_cloud *source,
-                                 const pkss_cloud *target, pkss_result *res)
+                                 const pkss_cloud *target, outcome *out)
 {
     double t0 = pkss__now();
-    pkss_status st = pkss_context_prepare(ctx);
+    pkss_status st = prepare_device(ctx, out);
     if (st != PKSS_OK)
         return st;
+    pkss_result *res = &out->res;
     res->struct_size = sizeof *res;
     res->source_counts = source->counts;
     res->target_counts = target->counts;
     res->backend = ctx->backend_in_use;
     snprintf(res->device, sizeof res->device, "%s", ctx->device_name);
-    st = run(ctx, source, target, res);
+    if (ctx->backend_in_use == PKSS_BACKEND_REFERENCE && ctx->fallback_note[0]) {
+        res->flags |= PKSS_FLAG_FELL_BACK;
+        snprintf(res->note, sizeof res->note, "%s", ctx->fallback_note);
+    }
+    st = run(ctx, source, target, out);
     res->timings.total = pkss__now() - t0;
     return st;
-}
-
-static void clear_result(pkss_result *result)
-{
-    size_t keep = result->struct_size;
-    memset(result, 0, keep < sizeof *result ? keep : sizeof *result);
-    result->struct_size = keep;
 }
 
 pkss_status pkss_register_clouds(pkss_context *ctx, const pkss_cloud *source,
                                  const pkss_cloud *target, pkss_result *result)
 {
-    PKSS_RETURN_IF(!ctx, NULL, PKSS_ERR_NULL_ARGUMENT, "ctx is NULL");
+    if (!ctx) {
+        clear_result(NULL, result);
+        return PKSS_ERR_NULL_ARGUMENT;
+    }
     pkss__clear_error(ctx);
+    clear_result(ctx, result);
     PKSS_FORWARD(check_result_arg(ctx, result));
     PKSS_RETURN_IF(!source, ctx, PKSS_ERR_NULL_ARGUMENT, "source cloud is NULL");
     PKSS_RETURN_IF(!target, ctx, PKSS_ERR_NULL_ARGUMENT, "target cloud is NULL");
-    pkss_result *res = pkss__calloc(1, sizeof *res);
-    if (!res) {
-        clear_result(result);
-        return pkss__fail(ctx, PKSS_ERR_OUT_OF_MEMORY, "out of memory");
-    }
-    pkss_status st = register_into(ctx, source, target, res);
+    outcome *out = pkss__calloc(1, sizeof *out);
+    PKSS_RETURN_IF(!out, ctx, PKSS_ERR_OUT_OF_MEMORY, "out of memory");
+    pkss__run run_state;
+    pkss__run_begin(ctx, &run_state);
+    pkss_status st = register_into(ctx, source, target, out);
     if (st == PKSS_OK)
-        deliver(result, res);
-    else
-        clear_result(result);
-    pkss__free(res);
+        deliver(ctx, result, out);
+    pkss__checkpoint(ctx->run, PKSS_PROGRESS_DONE, 1, 1);
+    pkss__run_end(ctx);
+    pkss__free(out);
     return st;
 }
 
 /* Pre-processing one cloud on a worker thread. Each job has its own copy
- * of the context for the error detail, so the two never share a buffer. */
+ * of the context for the error detail, so the two never share a buffer;
+ * the copies share the call's cancellation state. */
 typedef struct build_job {
     pkss_context ctx;
     const double *xyz;
@@ -778,13 +823,47 @@ typedef struct build_job {
     const char *which;
     pkss_cloud *cloud;
     pkss_status st;
+    pthread_mutex_t lock; /* guards done, signalled through finished */
+    pthread_cond_t finished;
+    int done;
 } build_job;
 
 static void *build_worker(void *arg)
 {
     build_job *j = arg;
     j->st = pkss__cloud_build(&j->ctx, j->xyz, j->n, j->which, &j->cloud);
+    pthread_mutex_lock(&j->lock);
+    j->done = 1;
+    pthread_cond_signal(&j->finished);
+    pthread_mutex_unlock(&j->lock);
     return NULL;
+}
+
+/* Seconds between the calling thread's progress ticks while it waits. */
+#define PKSS_WAIT_TICK 0.01
+
+/* While the target's job runs on the helper thread, the calling thread
+ * keeps the progress callback alive (cancellation stays prompt); it wakes
+ * as soon as the job is done. */
+static void wait_for(pkss_context *ctx, build_job *j)
+{
+    pthread_mutex_lock(&j->lock);
+    while (!j->done) {
+        struct timespec until;
+        clock_gettime(CLOCK_REALTIME, &until);
+        until.tv_nsec += (long)(PKSS_WAIT_TICK * 1e9);
+        if (until.tv_nsec >= 1000000000L) {
+            until.tv_sec += 1;
+            until.tv_nsec -= 1000000000L;
+        }
+        pthread_cond_timedwait(&j->finished, &j->lock, &until);
+        if (!j->done) {
+            pthread_mutex_unlock(&j->lock);
+            pkss__tick(ctx->run);
+            pthread_mutex_lock(&j->lock);
+        }
+    }
+    pthread_mutex_unlock(&j->lock);
 }
 
 /* The two clouds are independent: pre-process them concurrently (the
@@ -803,17 +882,22 @@ static pkss_status build_both(pkss_context *ctx, const double *source,
     const char *which[2] = {"source", "target"};
     for (int i = 0; i < 2; ++i) {
         jobs[i].ctx.params = ctx->params;
+        jobs[i].ctx.run = ctx->run;
         jobs[i].xyz = xyz[i];
         jobs[i].n = n[i];
         jobs[i].which = which[i];
+        pthread_mutex_init(&jobs[i].lock, NULL);
+        pthread_cond_init(&jobs[i].finished, NULL);
     }
     pthread_t th;
     int threaded = pthread_create(&th, NULL, build_worker, &jobs[1]) == 0;
     build_worker(&jobs[0]);
-    if (threaded)
+    if (threaded) {
+        wait_for(ctx, &jobs[1]);
         pthread_join(th, NULL);
-    else
+    } else {
         build_worker(&jobs[1]);
+    }
     pkss_status st = PKSS_OK;
     for (int i = 0; i < 2 && st == PKSS_OK; ++i)
         if (jobs[i].st != PKSS_OK) {
@@ -827,6 +911,10 @@ static pkss_status build_both(pkss_context *ctx, const double *source,
         pkss_cloud_destroy(jobs[0].cloud);
         pkss_cloud_destroy(jobs[1].cloud);
     }
+    for (int i = 0; i < 2; ++i) {
+        pthread_mutex_destroy(&jobs[i].lock);
+        pthread_cond_destroy(&jobs[i].finished);
+    }
     pkss__free(jobs);
     return st;
 }
@@ -835,32 +923,39 @@ pkss_status pkss_register(pkss_context *ctx, const double *source,
                           size_t n_source, const double *target,
                           size_t n_target, pkss_result *result)
 {
-    PKSS_RETURN_IF(!ctx, NULL, PKSS_ERR_NULL_ARGUMENT, "ctx is NULL");
+    if (!ctx) {
+        clear_result(NULL, result);
+        return PKSS_ERR_NULL_ARGUMENT;
+    }
     pkss__clear_error(ctx);
+    clear_result(ctx, result);
     PKSS_FORWARD(check_result_arg(ctx, result));
     double t0 = pkss__now();
     pkss_cloud *src = NULL, *tgt = NULL;
-    pkss_result *res = pkss__calloc(1, sizeof *res);
-    pkss_status st = res ? pkss_context_prepare(ctx)
-                         : pkss__fail(ctx, PKSS_ERR_OUT_OF_MEMORY, "out of memory");
+    outcome *out = pkss__calloc(1, sizeof *out);
+    PKSS_RETURN_IF(!out, ctx, PKSS_ERR_OUT_OF_MEMORY, "out of memory");
+    pkss__run run_state;
+    pkss__run_begin(ctx, &run_state);
+    pkss_status st = prepare_device(ctx, out);
     double tb = pkss__now();
     if (st == PKSS_OK)
         st = build_both(ctx, source, n_source, target, n_target, &src, &tgt);
     double build_wall = pkss__now() - tb;
     if (st == PKSS_OK)
-        st = register_into(ctx, src, tgt, res);
+        st = register_into(ctx, src, tgt, out);
     if (st == PKSS_OK) {
         /* the two clouds ran concurrently: report wall-clock shares */
+        pkss_result *res = &out->res;
         double v = src->validate_seconds > tgt->validate_seconds
                        ? src->validate_seconds : tgt->validate_seconds;
         res->timings.validate = v;
         res->timings.preprocess = build_wall - v;
         res->timings.total = pkss__now() - t0;
-        deliver(result, res);
-    } else {
-        clear_result(result);
+        deliver(ctx, result, out);
     }
-    pkss__free(res);
+    pkss__checkpoint(ctx->run, PKSS_PROGRESS_DONE, 1, 1);
+    pkss__run_end(ctx);
+    pkss__free(out);
     pkss_cloud_destroy(src);
     pkss_cloud_destroy(tgt);
     return st;

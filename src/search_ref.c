@@ -66,7 +66,10 @@ pkss_status pkss__search_ref(pkss_context *ctx, const pkss__search_input *in,
     }
     /* Every (rotation, offset) pair: G_K = max(G_contour, G_feature),
      * Eq. 7_3. */
-    for (size_t r = 0; r < rot->n_rotations; ++r) {
+    pkss_status st = PKSS_OK;
+    for (size_t r = 0; r < rot->n_rotations && st == PKSS_OK; ++r) {
+        st = pkss__checkpoint(ctx->run, PKSS_PROGRESS_SEARCH, (uint32_t)r,
+                              (uint32_t)rot->n_rotations);
         const size_t b = (size_t)rot->binning[r];
         const float *s = src + b * table;
         const float *sf = feat ? src_feat + b * table : NULL;
@@ -92,7 +95,7 @@ pkss_status pkss__search_ref(pkss_context *ctx, const pkss__search_input *in,
     pkss__free(tgt);
     pkss__free(occ);
     pkss__free(src_occ);
-    return PKSS_OK;
+    return st == PKSS_OK ? PKSS_OK : pkss__cancel_fail(ctx);
 }
 
 /* ---------------------------------------------------------- selection */

@@ -18,6 +18,7 @@
     X(PKSS_ERR_OUT_OF_RANGE, "Coordinates are too large to be processed in float32 after centring.") \
     X(PKSS_ERR_UNKNOWN_PARAMETER, "The parameter identifier is not known.")    \
     X(PKSS_ERR_WRONG_PARAMETER_TYPE, "The parameter has another type than the setter used.") \
+    X(PKSS_ERR_CANCELLED, "The progress callback cancelled the call.")         \
     X(PKSS_ERR_OUT_OF_MEMORY, "Memory allocation failed.")                     \
     X(PKSS_ERR_NO_DEVICE, "No OpenCL device is available.")                    \
     X(PKSS_ERR_DEVICE, "An OpenCL call failed.")                               \

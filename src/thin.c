@@ -25,6 +25,10 @@
 #define THIN_CELLS ((double)(1u << (THIN_BITS - 1))) /* extent / h max */
 #define THIN_EMPTY UINT64_MAX
 #define THIN_MAX_PASSES 40
+/* The voxel set holds up to this many times target keys: counts beyond
+ * only tell the search "too many" (it needs exact counts near target), so
+ * its memory follows target, not n. */
+#define THIN_TRACK 4
 
 typedef struct thin_grid {
     double lo[3];
@@ -33,6 +37,7 @@ typedef struct thin_grid {
     uint32_t *rep;     /* per slot: representative point (final pass) */
     double *rep_d2;    /* per slot: its distance^2 to the voxel centre */
     size_t mask;
+    size_t limit;      /* most keys held (half the slots) */
 } thin_grid;
 
 static uint64_t splitmix64(uint64_t *state)
@@ -92,6 +97,8 @@ static size_t occupied(thin_grid *g, const double *xyz, size_t n, double h,
             }
         }
         if (g->table[s] == THIN_EMPTY) {
+            if (count == g->limit)
+                return count + 1; /* more than limit: "too many" */
             g->table[s] = key;
             ++count;
             if (pick) {
@@ -104,6 +111,23 @@ static size_t occupied(thin_grid *g, const double *xyz, size_t n, double h,
         }
     }
     return count;
+}
+
+/* A voxel set for up to `keys` keys at load 1/2 (any earlier one freed). */
+static int grid_alloc(thin_grid *g, size_t keys)
+{
+    size_t cap = 16;
+    while (cap < 2 * keys)
+        cap *= 2;
+    pkss__free(g->table);
+    pkss__free(g->rep);
+    pkss__free(g->rep_d2);
+    g->mask = cap - 1;
+    g->limit = cap / 2;
+    g->table = pkss__malloc(cap * sizeof(uint64_t));
+    g->rep = pkss__malloc(cap * sizeof(uint32_t));
+    g->rep_d2 = pkss__malloc(cap * sizeof(double));
+    return g->table && g->rep && g->rep_d2;
 }
 
 static size_t absdiff(size_t a, size_t b) { return a > b ? a - b : b - a; }
@@ -150,16 +174,10 @@ pkss_status pkss__thin_voxel(const double *xyz, size_t n, size_t target,
     for (int d = 0; d < 3; ++d)
         g.off[d] = (double)(splitmix64(&rs) >> 11) * 0x1.0p-53;
 
-    size_t cap = 16;
-    while (cap < 2 * n)
-        cap *= 2;
-    g.mask = cap - 1;
-    g.table = pkss__malloc(cap * sizeof(uint64_t));
-    g.rep = pkss__malloc(cap * sizeof(uint32_t));
-    g.rep_d2 = pkss__malloc(cap * sizeof(double));
+    size_t track = target < n / THIN_TRACK ? THIN_TRACK * target : n;
     unsigned char *chosen = pkss__calloc(n, 1);
     pkss_status st = PKSS_OK;
-    if (!g.table || !g.rep || !g.rep_d2 || !chosen) {
+    if (!chosen || !grid_alloc(&g, track)) {
         st = PKSS_ERR_OUT_OF_MEMORY;
         goto cleanup;
     }
@@ -215,7 +233,14 @@ pkss_status pkss__thin_voxel(const double *xyz, size_t n, size_t target,
         }
     }
 
-    occupied(&g, xyz, n, best_h, 1);
+    if (occupied(&g, xyz, n, best_h, 1) > g.limit) {
+        /* no pass came near target (a grid at its finest): hold them all */
+        if (!grid_alloc(&g, n)) {
+            st = PKSS_ERR_OUT_OF_MEMORY;
+            goto cleanup;
+        }
+        occupied(&g, xyz, n, best_h, 1);
+    }
     for (size_t s = 0; s <= g.mask; ++s)
         if (g.table[s] != THIN_EMPTY)
             chosen[g.rep[s]] = 1;

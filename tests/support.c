@@ -44,6 +44,19 @@ double *pkss_test_load(const char *relative, size_t *n)
     return xyz;
 }
 
+double *pkss_test_load_bundled(const char *name, size_t *n)
+{
+    char path[4096];
+    snprintf(path, sizeof path, "%s/%s", PKSS_TEST_DATA_DIR, name);
+    double *xyz = NULL;
+    char err[512];
+    if (pkss_io_read(path, PKSS_IO_AUTO, &xyz, n, err, sizeof err) != PKSS_IO_OK) {
+        print_error("cannot load %s: %s\n", path, err);
+        return NULL;
+    }
+    return xyz;
+}
+
 int pkss_test_read_matrix(const char *path, const char *label, double T[16])
 {
     FILE *f = fopen(path, "r");
@@ -299,4 +312,13 @@ void pkss_test_similar_pair(pkss_test_rng *r, const double *xyz, size_t n, doubl
     pkss_test_random_similarity(r, pkss_test_diameter(xyz, n), T);
     if (*tgt)
         pkss_test_apply(T, *tgt, *nt, *tgt);
+}
+
+pkss_candidate pkss_test_candidate(const pkss_context *ctx, size_t index)
+{
+    pkss_candidate c;
+    pkss_candidate_init(&c, sizeof c);
+    if (pkss_context_candidate(ctx, index, &c) != PKSS_OK)
+        memset(c.T_target_source, 0, sizeof c.T_target_source);
+    return c;
 }

@@ -23,6 +23,8 @@ const char *pkss_test_data_path(const char *relative);
  * returns NULL with the reader's message printed when it cannot be read
  * (the caller asserts on the result). */
 double *pkss_test_load(const char *relative, size_t *n);
+/* The same for a file of the repository's tests/data (always present). */
+double *pkss_test_load_bundled(const char *name, size_t *n);
 
 /* Reads the first 16 numbers of a text file (comment lines starting with
  * '#' skipped) as a row-major 4x4; after the line equal to `label` when
@@ -80,5 +82,9 @@ size_t pkss_test_extreme(const double *xyz, size_t n, int axis, int from_min);
  * (NULL when out of memory). */
 double *pkss_test_cut_near(const double *xyz, size_t n, size_t centre, double share,
                            size_t *n_part);
+
+/* Candidate `index` of ctx's last registration (pkss_context_candidate);
+ * an all-zero pose if there is none. */
+pkss_candidate pkss_test_candidate(const pkss_context *ctx, size_t index);
 
 #endif

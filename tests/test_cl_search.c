@@ -318,7 +318,7 @@ static void test_nonexistent_device(void **state)
     assert_string_equal(pkss_context_device_name(ctx), "");
     /* registration reports it too, and the context stays usable */
     pkss_result res;
-    pkss_result_init(&res);
+    pkss_result_init(&res, sizeof res);
     double pts[12] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
     assert_int_equal(pkss_register(ctx, pts, 4, pts, 4, &res), PKSS_ERR_NO_DEVICE);
     assert_int_equal(pkss_context_set_string(ctx, PKSS_PARAM_DEVICE, "0"), PKSS_OK);
@@ -491,7 +491,7 @@ static void test_register_reports_device(void **state)
     double *tgt = malloc(n * 3 * sizeof(double));
     pkss_test_apply(T, cloud, n, tgt);
     pkss_result res;
-    pkss_result_init(&res);
+    pkss_result_init(&res, sizeof res);
     pkss_status st = pkss_register(ctx, cloud, n, tgt, n, &res);
     if (st != PKSS_OK)
         fail_msg("%s: %s", pkss_status_name(st), pkss_context_last_error(ctx));

@@ -166,7 +166,7 @@ static void test_exact_rotated_copy(void **state)
         pkss__mat3_apply(rs.R + 9 * k, raw + 3 * i, tgt + 3 * i);
     assert_int_equal(pkss_context_set_int(ctx, PKSS_PARAM_REFINE, PKSS_SWITCH_OFF), PKSS_OK);
     pkss_result res;
-    pkss_result_init(&res);
+    pkss_result_init(&res, sizeof res);
     assert_int_equal(pkss_register(ctx, raw, n, tgt, n, &res), PKSS_OK);
     double ang = pkss__rotation_angle(res.rotation, rs.R + 9 * k) * 180 / PI;
     printf("  unrefined pose vs R_%u: %.4f deg, scale %.6f, G %.2e\n", k, ang, res.scale, res.score);
@@ -210,14 +210,14 @@ static void test_unrefined_search_accuracy(void **state)
         }
         pkss_test_apply(T, tgt, nt, tgt);
         pkss_result res;
-        pkss_result_init(&res);
+        pkss_result_init(&res, sizeof res);
         assert_int_equal(pkss_register(ctx, src, ns, tgt, nt, &res), PKSS_OK);
         double at[3];
         pkss_test_centroid(raw, n, at);
         errs[t] = pkss_test_pose_error(res.T_target_source, T, at).rot_deg;
         double best_cand = 180;
         for (uint32_t c = 0; c < res.n_candidates; ++c) {
-            double e = pkss_test_pose_error(res.candidates[c].T_target_source, T, at).rot_deg;
+            double e = pkss_test_pose_error(pkss_test_candidate(ctx, c).T_target_source, T, at).rot_deg;
             if (e < best_cand)
                 best_cand = e;
         }

@@ -314,7 +314,7 @@ static void bench_register(pkss_context *ctx, const char *label, const double *s
     tot = malloc((size_t)g_runs * sizeof(double));
     pkss_result res;
     for (int r = -1; r < g_runs; ++r) { /* r = -1: warm-up */
-        pkss_result_init(&res);
+        pkss_result_init(&res, sizeof res);
         pkss_status st = pkss_register(ctx, src, ns, tgt, nt, &res);
         if (st != PKSS_OK) {
             fprintf(stderr, "bench_search: register %s: %s: %s\n", label,

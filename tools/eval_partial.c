@@ -18,7 +18,7 @@ static int strict_ok, strict_n; static double total_time;
 static void run(const char *label, double *src, size_t ns, double *tgt, size_t nt, const double T[16], int verbose) {
   pkss_context *ctx; pkss_context_create(&ctx);
   const char *b = getenv("BACKEND"); if (b) pkss_context_set_int(ctx, PKSS_PARAM_BACKEND, atoi(b));
-  pkss_result r; pkss_result_init(&r);
+  pkss_result r; pkss_result_init(&r, sizeof r);
   pkss_status st = pkss_register(ctx, src, ns, tgt, nt, &r);
   double at[3]; pkss_test_centroid(src, ns, at);
   pkss_test_err e = pkss_test_pose_error(r.T_target_source, T, at);
@@ -26,9 +26,9 @@ static void run(const char *label, double *src, size_t ns, double *tgt, size_t n
   int ok = st == PKSS_OK && e.rot_deg < 5 && e.scale_rel < 0.02 && e.trans / d < 0.02;
   /* best candidate */
   double bc = 999; int bci = -1;
-  for (unsigned c = 0; c < r.n_candidates; ++c) { pkss_test_err ec = pkss_test_pose_error(r.candidates[c].T_target_source, T, at); if (ec.rot_deg < bc) { bc = ec.rot_deg; bci = c; } }
+  for (unsigned c = 0; c < r.n_candidates; ++c) { pkss_test_err ec = pkss_test_pose_error(pkss_test_candidate(ctx, c).T_target_source, T, at); if (ec.rot_deg < bc) { bc = ec.rot_deg; bci = c; } }
   strict_ok += ok; strict_n++; total_time += r.timings.total;
-  if (verbose || !ok) printf("%-40s %s rot %7.2f sc %6.2f%% tr %6.2f%% ov %.3f win %u bestcand %d (%.1f deg, ov %.3f s %.3f) %.2fs\n", label, ok ? "ok  " : "FAIL", e.rot_deg, 100*e.scale_rel, 100*e.trans/d, r.overlap, r.winner, bci, bc, bci>=0?r.candidates[bci].overlap:0, bci>=0?r.candidates[bci].scale:0, r.timings.total);
+  if (verbose || !ok) printf("%-40s %s rot %7.2f sc %6.2f%% tr %6.2f%% ov %.3f win %u bestcand %d (%.1f deg, ov %.3f s %.3f) %.2fs\n", label, ok ? "ok  " : "FAIL", e.rot_deg, 100*e.scale_rel, 100*e.trans/d, r.overlap, r.winner, bci, bc, bci>=0?pkss_test_candidate(ctx, bci).overlap:0, bci>=0?pkss_test_candidate(ctx, bci).scale:0, r.timings.total);
   pkss_context_destroy(ctx);
 }
 static int cmp_double(const void *a, const void *b) { double x=*(const double*)a, y=*(const double*)b; return (x>y)-(x<y); }

@@ -76,7 +76,7 @@ int main(int argc, char **argv)
 
     pkss_context *ctx = NULL;
     pkss_result res;
-    pkss_result_init(&res);
+    pkss_result_init(&res, sizeof res);
     pkss_status st = pkss_context_create(&ctx);
     if (st == PKSS_OK)
         st = pkss_register(ctx, src, ns, tgt, nt, &res);

@@ -1,0 +1,46 @@
+#!/usr/bin/env python3
+# SPDX-License-Identifier: MIT
+"""Writes the benchmark's pairs (tools/bench/cases.py) to a folder, for
+pkss_dump: every synthetic case x object x seed index and every real pair x
+seed index, as raw little-endian float64 files and a manifest.
+
+    python3 tools/identity/export_pairs.py --out /tmp/pairs --seeds 3 --real-seeds 2 [--base-seed 0]
+
+The manifest has one line per pair: id, pkss seed, source file, target file.
+A separate --base-seed gives a validation base with other pairs."""
+import argparse
+import os
+import sys
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "bench"))
+import cases as C  # noqa: E402
+import numpy as np  # noqa: E402
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--seeds", type=int, default=3)
+    ap.add_argument("--real-seeds", type=int, default=2)
+    ap.add_argument("--base-seed", type=int, default=0)
+    a = ap.parse_args()
+    os.makedirs(a.out, exist_ok=True)
+    items = [("s", o, c, i) for i in range(a.seeds) for c in C.SYNTH_CASES for o in C.OBJECTS]
+    items += [("r", p, None, i) for i in range(a.real_seeds) for p in C.REAL_PAIRS]
+    with open(os.path.join(a.out, "manifest.txt"), "w") as man:
+        for n, (kind, name, case, i) in enumerate(items):
+            try:
+                cs = (C.make_synthetic(name, case, i, a.base_seed) if kind == "s"
+                      else C.make_real(name, i, a.base_seed))
+            except (OSError, KeyError, ValueError) as e:
+                print(f"skip {name}/{case}/{i}: {e}", file=sys.stderr)
+                continue
+            stem = f"p{n:05d}"
+            cs.source.astype("<f8").tofile(os.path.join(a.out, stem + "_s.bin"))
+            cs.target.astype("<f8").tofile(os.path.join(a.out, stem + "_t.bin"))
+            man.write(f"{cs.case_id} {cs.seed % 2**31} {stem}_s.bin {stem}_t.bin\n")
+    print(f"{len(items)} pairs in {a.out}")
+
+
+if __name__ == "__main__":
+    main()
