@@ -4,7 +4,10 @@
  * there is none, the OpenCL error names, and the deterministic device
  * selection of a context. The listing is re-read on every call (the ICD
  * loader caches platforms itself) under one mutex, so it is thread-safe.
+ * The ICD loader itself is loaded at the first listing (cl_loader.c); when
+ * it is absent the listing is empty and the reason says so.
  */
+#define _POSIX_C_SOURCE 200809L /* access */
 #include "pkss_cl.h"
 
 #ifdef PKSS_WITH_OPENCL
@@ -14,6 +17,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #ifndef CL_PLATFORM_NOT_FOUND_KHR
 #define CL_PLATFORM_NOT_FOUND_KHR -1001
@@ -71,6 +76,7 @@ pkss_status pkss__cl_fail(pkss_context *ctx, cl_int err, const char *what)
 /* ------------------------------------------------------------ listing */
 typedef struct device_list {
     unsigned count;
+    int loader_ok;            /* libOpenCL could be loaded (cl_loader.c) */
     cl_int platform_err;      /* clGetPlatformIDs result */
     unsigned n_platforms;
     cl_platform_id platform[PKSS_CL_MAX_DEVICES];
@@ -85,6 +91,11 @@ static pthread_mutex_t list_lock = PTHREAD_MUTEX_INITIALIZER;
 static void list_devices(device_list *out)
 {
     memset(out, 0, sizeof *out);
+    out->loader_ok = pkss__cl_load();
+    if (!out->loader_ok) {
+        out->platform_err = CL_PLATFORM_NOT_FOUND_KHR;
+        return;
+    }
     pthread_mutex_lock(&list_lock);
     cl_platform_id plats[16];
     cl_uint np = 0;
@@ -188,14 +199,45 @@ pkss_status pkss_device_info(unsigned index, pkss_device_desc *out)
     "apt-get install pocl-opencl-icd ocl-icd-libopencl1 (or a GPU vendor's "  \
     "OpenCL driver); meanwhile PKSS_BACKEND_REFERENCE (plain C) works."
 
+/* PoCL hides its devices when its cache folder cannot be written. Tried
+ * for real (permission bits do not bind root): a probe file in the folder,
+ * or creating the folder; whatever the probe made is removed. Runs only
+ * when no device is listed. */
+static int pocl_cache_unwritable(void)
+{
+    const char *dir = getenv("POCL_CACHE_DIR");
+    char probe[4096];
+    if (!dir || !dir[0] || strlen(dir) > sizeof probe - 16)
+        return 0;
+    if (mkdir(dir, 0700) == 0) {
+        rmdir(dir);
+        return 0;
+    }
+    snprintf(probe, sizeof probe, "%s/.pkssXXXXXX", dir);
+    int fd = mkstemp(probe);
+    if (fd < 0)
+        return 1;
+    close(fd);
+    unlink(probe);
+    return 0;
+}
+
 const char *pkss_no_device_reason(void)
 {
     device_list list;
     list_devices(&list);
+    if (!list.loader_ok)
+        return pkss__cl_load_error();
     if (list.platform_err != CL_SUCCESS || list.n_platforms == 0)
         return "No OpenCL platform is installed: the ICD loader found no "
                "vendor driver (/etc/OpenCL/vendors/*.icd, or OCL_ICD_VENDORS). "
                PKSS_INSTALL_HINT;
+    if (list.count == 0 && pocl_cache_unwritable())
+        return "OpenCL platforms are installed but none lists a device, and "
+               "POCL_CACHE_DIR names a folder that cannot be written (PoCL "
+               "lists no device without a writable cache): point "
+               "POCL_CACHE_DIR at a writable folder, or unset it; meanwhile "
+               "PKSS_BACKEND_REFERENCE (plain C) works.";
     if (list.count == 0)
         return "OpenCL platforms are installed but none lists a device. "
                PKSS_INSTALL_HINT;
@@ -286,6 +328,9 @@ pkss_status pkss__cl_select(pkss_context *ctx, cl_platform_id *platform,
     device_list list;
     list_devices(&list);
     if (list.count == 0) {
+        if (!list.loader_ok)
+            return pkss__fail(ctx, PKSS_ERR_NO_DEVICE, "no OpenCL device: %s",
+                              pkss__cl_load_error());
         if (list.platform_err != CL_SUCCESS)
             return pkss__fail(ctx, PKSS_ERR_NO_DEVICE,
                               "no OpenCL device: clGetPlatformIDs: %s (%d). %s",

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT
  * opencl_none.c -- the device entry points of a build without OpenCL
- * (-DPKSS_WITH_OPENCL=OFF or no OpenCL SDK found): every device call says
+ * (-DPKSS_WITH_OPENCL=OFF or no OpenCL headers found): every device call says
  * so clearly, and the reference backend keeps working. */
 #include "pkss_internal.h"
 
@@ -8,8 +8,8 @@
 
 #define PKSS_NO_CL_MSG                                                         \
     "this pkss was built without OpenCL support; rebuild with the OpenCL "     \
-    "SDK installed (Debian: apt-get install ocl-icd-opencl-dev opencl-headers " \
-    "pocl-opencl-icd) or use PKSS_BACKEND_REFERENCE"
+    "headers installed (Debian: apt-get install opencl-headers; to run: "      \
+    "ocl-icd-libopencl1 pocl-opencl-icd) or use PKSS_BACKEND_REFERENCE"
 
 pkss_status pkss__cl_prepare(pkss_context *ctx)
 {

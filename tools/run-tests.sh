@@ -2,11 +2,16 @@
 # The README's second command (and what CI runs): the whole test suite.
 #   1. Release build, every ctest program (unit, device on PoCL, slow
 #      end-to-end, CLI), warnings as errors under CI;
-#   2. an AddressSanitizer + UndefinedBehaviorSanitizer build running the
+#   2. the C package: libpkss.so's link surface (no NEEDED libOpenCL,
+#      pkss_* exports only), `cmake --install` into build/prefix, and
+#      programs built only from what was installed: a find_package(pkss)
+#      CMake project, a pkg-config build, the add_subdirectory case and the
+#      Rust example (examples/rust, when cargo is on PATH) (tests/package);
+#   3. an AddressSanitizer + UndefinedBehaviorSanitizer build running the
 #      same C tests;
-#   3. the Python package installed with pip into a venv, and its pytest
+#   4. the Python package installed with pip into a venv, and its pytest
 #      suite;
-#   4. the benchmark's --quick smoke run.
+#   5. the benchmark's --quick smoke run.
 # Needs the packages of tools/install-deps.sh.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -17,12 +22,17 @@ if [ "${CI:-}" = "true" ]; then WERROR=ON; fi
 export POCL_CACHE_DIR="${POCL_CACHE_DIR:-$ROOT/build/pocl-cache}"
 mkdir -p "$POCL_CACHE_DIR"
 
-echo "== [1/4] release build + ctest"
-cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DPKSS_WERROR=$WERROR >/dev/null
+echo "== [1/5] release build + ctest"
+cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DPKSS_WERROR=$WERROR \
+      -DPKSS_BUILD_STATIC=ON >/dev/null
 cmake --build build -j"$JOBS"
 ctest --test-dir build --output-on-failure -j"$JOBS"
 
-echo "== [2/4] sanitizer build (ASan + UBSan) + ctest"
+echo "== [2/5] C package: exports, install, CMake + pkg-config + Rust consumers"
+bash tests/package/check_exports.sh build/src/libpkss.so
+JOBS=$JOBS bash tests/package/run.sh build build/prefix build/package
+
+echo "== [3/5] sanitizer build (ASan + UBSan) + ctest"
 cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPKSS_SANITIZE=ON \
       -DPKSS_WERROR=$WERROR >/dev/null
 cmake --build build-asan -j"$JOBS"
@@ -33,13 +43,13 @@ LSAN_OPTIONS=suppressions=$ROOT/tests/lsan.supp:print_suppressions=0 \
 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
   ctest --test-dir build-asan --output-on-failure -j"$JOBS" -LE nosan
 
-echo "== [3/4] Python bindings (pip install) + pytest"
+echo "== [4/5] Python bindings (pip install) + pytest"
 python3 -m venv build/venv
 build/venv/bin/python -m pip install -q --upgrade pip
 build/venv/bin/python -m pip install -q ./bindings/python pytest
 build/venv/bin/python -m pytest bindings/python/tests -q
 
-echo "== [4/4] benchmark smoke run (tools/bench/run.py --quick)"
+echo "== [5/5] benchmark smoke run (tools/bench/run.py --quick)"
 if [ -f tools/bench/run.py ]; then
   build/venv/bin/python -m pip install -q -r tools/bench/requirements-quick.txt
   build/venv/bin/python tools/bench/run.py --quick --out build/bench-quick
