@@ -1,8 +1,10 @@
 /* SPDX-License-Identifier: MIT
  * pkss_info.c -- pkss-info: the library version and build, the OpenCL
  * devices as pkss sees them (the indices --device and PKSS_DEVICE take)
- * and the parameters with their defaults and ranges. A thin client of
- * pkss.h. Exits 0 whether or not a device is found (2 on a usage error).
+ * and the parameters with their defaults and ranges, from the library's
+ * table (pkss_param_at). A thin client of pkss.h. --params prints the
+ * parameters alone, tab-separated, for scripts. Exit codes: 0 (also when
+ * no device is found), 2 usage error, 3 cannot write standard output.
  */
 #include "pkss.h"
 
@@ -11,7 +13,6 @@
 #include <string.h>
 
 #define TOOL "pkss-info"
-#define MAX_PARAM_ID 1000 /* ids probed with pkss_param_name() */
 
 static void print_devices(void)
 {
@@ -54,44 +55,127 @@ static void print_devices(void)
     }
 }
 
-/* The API cannot tell a switch from a 0..2 integer parameter: the
- * switches of pkss.h are listed here (unknown ids print as numbers). */
-static int is_switch(int id)
+static const char *type_name(int32_t t)
 {
-    return id == PKSS_PARAM_CULL_MUTUAL || id == PKSS_PARAM_CULL_STAT ||
-           id == PKSS_PARAM_USE_FEATURES || id == PKSS_PARAM_PCA_PREALIGN ||
-           id == PKSS_PARAM_REFINE || id == PKSS_PARAM_DROP_NONFINITE;
+    switch (t) {
+    case PKSS_TYPE_INT: return "int";
+    case PKSS_TYPE_DOUBLE: return "double";
+    case PKSS_TYPE_SWITCH: return "switch";
+    case PKSS_TYPE_CHOICE: return "choice";
+    case PKSS_TYPE_STRING: return "string";
+    default: return "unknown";
+    }
 }
 
+/* Value `v` of a '|'-separated list of names into buf; "" if none. */
+static const char *choice_name(const char *choices, double v, char *buf,
+                               size_t size)
+{
+    const char *p = choices ? choices : "";
+    long k;
+    size_t len;
+    buf[0] = '\0';
+    if (v < 0 || v != (double)(long)v)
+        return buf;
+    for (k = 0; k < (long)v && p; k++) {
+        p = strchr(p, '|');
+        if (p)
+            p++;
+    }
+    if (!p)
+        return buf;
+    len = strcspn(p, "|");
+    if (len >= size)
+        len = size - 1;
+    memcpy(buf, p, len);
+    buf[len] = '\0';
+    return buf;
+}
+
+/* The default as the tools spell it: a switch or choice by name. */
+static const char *default_text(const pkss_param_info *in, char *buf,
+                                size_t size)
+{
+    if (in->type == PKSS_TYPE_STRING)
+        buf[0] = '\0';
+    else if ((in->type == PKSS_TYPE_SWITCH || in->type == PKSS_TYPE_CHOICE) &&
+             choice_name(in->choices, in->default_value, buf, size)[0])
+        ;
+    else
+        snprintf(buf, size, "%.15g", in->default_value);
+    return buf;
+}
+
+static int param_at(size_t i, pkss_param_info *in)
+{
+    pkss_param_info_init(in, sizeof *in);
+    if (pkss_param_at(i, in) != PKSS_OK || !in->name)
+        return -1;
+    if (!in->unit) in->unit = "";
+    if (!in->choices) in->choices = "";
+    if (!in->constraint) in->constraint = "";
+    if (!in->doc) in->doc = "";
+    return 0;
+}
+
+/* Human-readable, from the library's table (pkss_param_at). */
 static void print_params(void)
 {
-    int id;
-    printf("Parameters (name, id, default, range; 0 always means "
+    size_t i, n = pkss_param_count();
+    printf("Parameters (name, id, type, default, range; 0 always means "
            "default):\n");
-    for (id = 0; id < MAX_PARAM_ID; id++) {
-        const char *n = pkss_param_name((pkss_param)id);
-        double lo, hi, def;
-        if (!n)
+    for (i = 0; i < n; i++) {
+        pkss_param_info in;
+        char def[64];
+        if (param_at(i, &in) != 0)
             continue;
-        if (pkss_param_bounds((pkss_param)id, &lo, &hi, &def) != PKSS_OK)
-            printf("  %-16s %4d  (string)\n", n, id);
-        else if (is_switch(id))
-            printf("  %-16s %4d  switch, default %s\n", n, id,
-                   def == PKSS_SWITCH_OFF ? "off" : "on");
-        else if (id == PKSS_PARAM_ROTATION_SET)
-            printf("  %-16s %4d  default %s (1 euler, 2 uniform)\n", n, id,
-                   def == PKSS_ROTATIONS_UNIFORM ? "uniform" : "euler");
-        else if (id == PKSS_PARAM_BACKEND)
-            printf("  %-16s %4d  default %s (0 auto, 1 reference, 2 "
-                   "opencl)\n",
-                   n, id,
-                   def == PKSS_BACKEND_REFERENCE ? "reference"
-                   : def == PKSS_BACKEND_OPENCL  ? "opencl"
-                                                 : "auto");
+        default_text(&in, def, sizeof def);
+        if (in.type == PKSS_TYPE_STRING)
+            printf("  %-16s %4d  string\n", in.name, (int)in.id);
+        else if (in.type == PKSS_TYPE_SWITCH || in.type == PKSS_TYPE_CHOICE)
+            printf("  %-16s %4d  %-6s default %-10s (%s)\n", in.name,
+                   (int)in.id, type_name(in.type), def, in.choices);
         else
-            printf("  %-16s %4d  default %-10.10g range [%.10g, %.10g]\n", n,
-                   id, def, lo, hi);
+            printf("  %-16s %4d  %-6s default %-10s range [%.15g, %.15g]%s%s"
+                   "\n",
+                   in.name, (int)in.id, type_name(in.type), def, in.lower,
+                   in.upper, in.constraint[0] ? " " : "", in.constraint);
     }
+}
+
+/* Machine-readable (--params): a header line, then one tab-separated line
+ * per parameter; the CLI test, the Python binding and the README checks
+ * read it. Tabs and newlines cannot occur in the table's strings. */
+static void print_params_tsv(void)
+{
+    size_t i, n = pkss_param_count();
+    printf("name\tid\ttype\tdefault\tlower\tupper\tunit\tchoices\t"
+           "constraint\toption\tdoc\n");
+    for (i = 0; i < n; i++) {
+        pkss_param_info in;
+        char def[64], opt[64];
+        size_t k;
+        if (param_at(i, &in) != 0)
+            continue;
+        for (k = 0; in.name[k] && k + 1 < sizeof opt; k++)
+            opt[k] = in.name[k] == '_' ? '-' : in.name[k];
+        opt[k] = '\0';
+        printf("%s\t%d\t%s\t%s\t%.15g\t%.15g\t%s\t%s\t%s\t--%s\t%s\n",
+               in.name, (int)in.id, type_name(in.type),
+               default_text(&in, def, sizeof def), in.lower, in.upper,
+               in.unit, in.choices, in.constraint, opt, in.doc);
+    }
+}
+
+/* Every write is checked: a full disk or closed pipe is exit 3. */
+static int finish(int rc)
+{
+    if (fflush(stdout) != 0 || ferror(stdout)) {
+        fprintf(stderr, TOOL ": PKSS_IO_ERR_OPEN: cannot write to standard "
+                        "output\n");
+        return rc ? rc : 3;
+    }
+    return rc;
 }
 
 int main(int argc, char **argv)
@@ -103,17 +187,27 @@ int main(int argc, char **argv)
                         "%s\n",
                    PKSS_VERSION_MAJOR, PKSS_VERSION_MINOR, PKSS_VERSION_PATCH,
                    pkss_version_string());
-            return 0;
+            return finish(0);
+        }
+        if (strcmp(argv[i], "--params") == 0) {
+            print_params_tsv();
+            return finish(0);
         }
         if (strcmp(argv[i], "-h") == 0 || strcmp(argv[i], "--help") == 0) {
-            printf("Usage: " TOOL " [--version] [--help]\n"
+            printf("Usage: " TOOL " [--version] [--params] [--help]\n"
                    "Prints the pkss library version and build, the OpenCL "
                    "devices pkss can use\n"
                    "(indices for pkss-align --device and PKSS_DEVICE) and "
                    "the parameters.\n"
+                   "  --params   only the parameters, one tab-separated "
+                   "line each after a\n"
+                   "             header line: name id type default lower "
+                   "upper unit choices\n"
+                   "             constraint option doc\n"
                    "Exit codes: 0 (also when no device is found), 2 usage "
-                   "error.\n");
-            return 0;
+                   "error, 3 cannot\n"
+                   "write standard output.\n");
+            return finish(0);
         }
         fprintf(stderr,
                 TOOL ": PKSS_ERR_INVALID_ARGUMENT: unknown argument '%s' "
@@ -133,5 +227,5 @@ int main(int argc, char **argv)
         printf("PKSS_DEVICE: %s\n", env && *env ? env : "(not set)");
     }
     print_params();
-    return 0;
+    return finish(0);
 }

@@ -13,6 +13,8 @@
  *       poses, as a fraction of the target's bounding-box diagonal.
  *   check_pose count CLOUD N         the cloud loads with N points
  *   check_pose same MATRIX_A MATRIX_B TOL   max |a - b| <= TOL * max |b|
+ *   check_pose cloud_same CLOUD_A CLOUD_B   same points, x y z bit-identical
+ *       (a written PCD or XYZ against the binary PLY of the same run)
  *
  * Exit 0 pass, 1 fail, 2 usage or unreadable input.
  */
@@ -245,6 +247,29 @@ int main(int argc, char **argv)
                d <= tol * m ? "PASS" : "FAIL");
         return d <= tol * m ? 0 : 1;
     }
-    fprintf(stderr, "usage: check_pose pose|count|same ... (see the source)\n");
+    if (argc == 4 && strcmp(argv[1], "cloud_same") == 0) {
+        size_t na = 0, nb = 0, i;
+        double *a = load(argv[2], &na), *b = a ? load(argv[3], &nb) : NULL;
+        int ok;
+        if (!a || !b) {
+            free(a);
+            return 2;
+        }
+        ok = na == nb;
+        for (i = 0; ok && i < 3 * na; i++)
+            if (memcmp(&a[i], &b[i], sizeof a[i]) != 0) {
+                printf("point %lu coordinate %lu: %.17g vs %.17g\n",
+                       (unsigned long)(i / 3), (unsigned long)(i % 3), a[i],
+                       b[i]);
+                ok = 0;
+            }
+        printf("%s: %lu points, %s: %lu points, bit-identical: %s\n",
+               argv[2], (unsigned long)na, argv[3], (unsigned long)nb,
+               ok ? "PASS" : "FAIL");
+        free(a);
+        free(b);
+        return ok ? 0 : 1;
+    }
+    fprintf(stderr, "usage: check_pose pose|count|same|cloud_same ... (see the source)\n");
     return 2;
 }

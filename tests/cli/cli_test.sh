@@ -90,7 +90,8 @@ case_help() {
     run 0 "$ALIGN" --help
     stdout_has '^Usage: pkss-align SOURCE TARGET'
     stdout_has 'Exit codes'
-    stdout_has '--points m +3000' # defaults come from pkss_param_bounds
+    stdout_has '^  130 +interrupted'
+    stdout_has '--points N +default [0-9]+, integer in \[' # from pkss_param_at
 }
 case_version() { run 0 "$ALIGN" --version; stdout_has 'runtime libpkss [0-9]+\.[0-9]+\.[0-9]+'; }
 case_info() {
@@ -100,6 +101,9 @@ case_info() {
     stdout_has '^build: '
     stdout_has '^OpenCL devices: '
     stdout_has 'rotation_steps'
+    run 0 "$INFO" --params
+    stdout_has '^name	id	type	default	lower	upper	unit	choices	constraint	option	doc$'
+    stdout_has '^drop_nonfinite	132	switch	off	'
 }
 
 # ------------------------------------------------------------- I/O (3)
@@ -242,6 +246,261 @@ case_outputs_drop_nonfinite() {
         fail "pose differs from the ground truth"
     run 0 "$ALIGN" "$WORK/s.xyz" "$DATA/modelnet40_pkss/airplane_0001_t.ply" --drop-nonfinite -q
     [ "$(wc -l < "$OUT")" -eq 4 ] || fail "-q must print the 4 matrix lines only"
+}
+
+# ------------------------------------- CLI conventions (#20, #21, #22)
+# A source and a target that differ by a similarity, as .xyz text.
+make_pair() { # dir
+    make_cloud "$1/s.xyz" 400
+    awk '{ printf "%.9f %.9f %.9f\n", 2 * $2 + 1, -2 * $1, 2 * $3 + 0.5 }' "$1/s.xyz" > "$1/t.xyz"
+}
+FAST=(--backend reference)
+
+# Every write is checked, standard output's too.
+case_stdout_full() {
+    [ -n "$INFO" ] || fail "PKSS_INFO not set"
+    make_pair "$WORK"
+    local flags rc
+    for flags in "" -q -v -qv; do
+        echo "+ $ALIGN s.xyz t.xyz ${FAST[*]} $flags > /dev/full"
+        "$ALIGN" "$WORK/s.xyz" "$WORK/t.xyz" "${FAST[@]}" $flags >/dev/full 2>"$ERR"
+        rc=$?
+        [ "$rc" -eq 3 ] || fail "exit $rc with stdout on /dev/full ($flags), expected 3"
+        stderr_has '^pkss-align: PKSS_IO_ERR_OPEN: .*standard output'
+    done
+    for flags in "" --params --version; do
+        echo "+ $INFO $flags > /dev/full"
+        "$INFO" $flags >/dev/full 2>"$ERR"
+        rc=$?
+        [ "$rc" -eq 3 ] || fail "pkss-info $flags > /dev/full: exit $rc, expected 3"
+        stderr_has '^pkss-info: PKSS_IO_ERR_OPEN: .*standard output'
+    done
+}
+
+# An output naming an input is refused before anything is written.
+case_output_is_input() {
+    make_pair "$WORK"
+    local before after
+    before=$(sha256sum < "$WORK/s.xyz")
+    run 2 "$ALIGN" "$WORK/s.xyz" "$WORK/t.xyz" "${FAST[@]}" -o "$WORK/s.xyz"
+    stderr_has "output -o '.*s\.xyz' is the same file as SOURCE"
+    run 2 "$ALIGN" "$WORK/s.xyz" "$WORK/t.xyz" "${FAST[@]}" --json "$WORK/../$CASE/t.xyz"
+    stderr_has "output --json .* is the same file as TARGET"
+    ln "$WORK/s.xyz" "$WORK/hard.xyz" && ln -s s.xyz "$WORK/link.xyz" || fail "cannot link"
+    run 2 "$ALIGN" "$WORK/s.xyz" "$WORK/t.xyz" "${FAST[@]}" --matrix "$WORK/hard.xyz"
+    run 2 "$ALIGN" "$WORK/s.xyz" "$WORK/t.xyz" "${FAST[@]}" -o "$WORK/link.xyz"
+    after=$(sha256sum < "$WORK/s.xyz")
+    [ "$before" = "$after" ] || fail "the source changed"
+}
+
+# Two outputs naming one file are refused, naming both.
+case_output_alias() {
+    make_pair "$WORK"
+    run 2 "$ALIGN" "$WORK/s.xyz" "$WORK/t.xyz" "${FAST[@]}" --json "$WORK/X.ply" -o "$WORK/X.ply"
+    stderr_has "output --json '.*X\.ply' is the same file as output -o '.*X\.ply'"
+    [ ! -e "$WORK/X.ply" ] || fail "X.ply was created"
+    run 2 "$ALIGN" "$WORK/s.xyz" "$WORK/t.xyz" "${FAST[@]}" --json - --matrix -
+    stderr_has "same file"
+}
+
+# A FIFO output is a stream: no open before the run (that would block).
+case_output_fifo() {
+    make_pair "$WORK"
+    mkfifo "$WORK/fifo.ply" || fail "mkfifo"
+    timeout 120 cat "$WORK/fifo.ply" > "$WORK/got.ply" &
+    local reader=$! rc
+    echo "+ timeout 120 $ALIGN s.xyz t.xyz -o fifo.ply"
+    timeout 120 "$ALIGN" "$WORK/s.xyz" "$WORK/t.xyz" "${FAST[@]}" -o "$WORK/fifo.ply" >"$OUT" 2>"$ERR"
+    rc=$?
+    wait "$reader"
+    [ "$rc" -eq 0 ] || fail "exit $rc (124 = hung)"
+    [ -p "$WORK/fifo.ply" ] || fail "the FIFO was replaced"
+    "$CHECK" count "$WORK/got.ply" 400 || fail "the reader did not get the cloud"
+}
+
+# '-' is stdout: only the JSON is printed there, and it parses.
+case_json_stdout() {
+    command -v python3 >/dev/null 2>&1 || { echo "SKIP [$CASE]: no python3"; exit 77; }
+    make_pair "$WORK"
+    run 0 "$ALIGN" "$WORK/s.xyz" "$WORK/t.xyz" "${FAST[@]}" --json -
+    python3 -c 'import json,sys; d = json.load(sys.stdin); assert d["schema_version"] == 1' < "$OUT" ||
+        fail "stdout is not the JSON document"
+}
+
+# JSON: schema_version, parameters by name with symbolic values, stages.
+case_json_symbolic() {
+    command -v python3 >/dev/null 2>&1 || { echo "SKIP [$CASE]: no python3"; exit 77; }
+    make_pair "$WORK"
+    run 0 "$ALIGN" "$WORK/s.xyz" "$WORK/t.xyz" --backend reference --drop-nonfinite off \
+        --no-refine --rotations uniform --rotation-count 500 --set top_k=3 --json "$WORK/r.json"
+    python3 - "$WORK/r.json" <<'PY' || fail "JSON content"
+import json, sys
+d = json.load(open(sys.argv[1]))
+p = d["parameters"]
+assert d["schema_version"] == 1, d["schema_version"]
+want = {"drop_nonfinite": "off", "backend": "reference", "refine": "off",
+        "rotation_set": "uniform", "rotation_count": 500, "top_k": 3,
+        "cull_mutual": "on", "device": None}
+for k, v in want.items():
+    assert p[k] == v, (k, p[k], v)
+assert d["status"] == "PKSS_OK"
+assert len(d["candidates"]) == d["n_candidates"] >= 1
+assert all(c["stage"] == "search" and c["search"] in (0, 1) for c in d["candidates"])
+assert "flags" not in d or d["flags"] and d["note"]
+PY
+}
+
+# backend auto without a matching device falls back, says so and why.
+case_fell_back() {
+    make_pair "$WORK"
+    run 0 "$ALIGN" "$WORK/s.xyz" "$WORK/t.xyz" --device no-such-device-xyz --json "$WORK/r.json"
+    stderr_has '^pkss-align: warning: .*reference'
+    grep -q '"flags": \["fell_back"\]' "$WORK/r.json" || fail "JSON lacks flags"
+    grep -q '"note": ".' "$WORK/r.json" || fail "JSON lacks the note"
+    grep -q '"backend": "reference"' "$WORK/r.json" || fail "JSON backend"
+}
+
+# An unwritable POCL_CACHE_DIR hides PoCL's devices: the reason names it.
+case_pocl_cache() {
+    [ -n "$INFO" ] || return 0
+    POCL_CACHE_DIR=/proc/pkss-no-cache run 0 "$INFO"
+    grep -q "POCL_CACHE_DIR names a folder that cannot be written" "$OUT" ||
+        grep -q "ICD loader" "$OUT" || fail "the reason does not name POCL_CACHE_DIR"
+}
+
+# Output format follows the extension; PCD and XYZ read back bit-identically.
+case_output_formats() {
+    make_pair "$WORK"
+    local ext
+    for ext in ply pcd xyz; do
+        run 0 "$ALIGN" "$WORK/s.xyz" "$WORK/t.xyz" "${FAST[@]}" -q -o "$WORK/out.$ext"
+    done
+    "$CHECK" cloud_same "$WORK/out.pcd" "$WORK/out.ply" || fail "PCD differs from PLY"
+    "$CHECK" cloud_same "$WORK/out.xyz" "$WORK/out.ply" || fail "XYZ differs from PLY"
+    run 0 "$ALIGN" "$WORK/s.xyz" "$WORK/t.xyz" "${FAST[@]}" -o - --output-format pcd
+    cp "$OUT" "$WORK/stdout.pcd"
+    "$CHECK" cloud_same "$WORK/stdout.pcd" "$WORK/out.ply" || fail "-o - PCD differs"
+    run 2 "$ALIGN" "$WORK/s.xyz" "$WORK/t.xyz" -o "$WORK/out.foo"
+    stderr_has 'output format'
+    [ ! -e "$WORK/out.foo" ] || fail "out.foo was written"
+    run 2 "$ALIGN" "$WORK/s.xyz" "$WORK/t.xyz" -o -
+    run 2 "$ALIGN" "$WORK/s.xyz" "$WORK/t.xyz" -o "$WORK/o.ply" --output-format obj
+}
+
+# getopt_long style: bundled short options; -v reports progress as it runs.
+case_short_bundle() {
+    make_pair "$WORK"
+    run 0 "$ALIGN" -qv "$WORK/s.xyz" "$WORK/t.xyz" "${FAST[@]}" -o"$WORK/o.xyz"
+    [ "$(wc -l < "$OUT")" -eq 4 ] || fail "-q must print the 4 matrix lines only"
+    stderr_has '^pkss-align: \[ *[0-9.]+ s\] preprocess'
+    stderr_has '^pkss-align: \[ *[0-9.]+ s\] search'
+    stderr_has '^pkss-align: times'
+    "$CHECK" count "$WORK/o.xyz" 400 || fail "-oFILE"
+    run 2 "$ALIGN" -qx "$WORK/s.xyz" "$WORK/t.xyz"
+    stderr_has "unknown option '-x'"
+}
+
+# Standard input: PLY is recognised from the content, XYZ needs a format.
+case_stdin_input() {
+    make_pair "$WORK"
+    run 0 "$ALIGN" "$WORK/s.xyz" "$WORK/t.xyz" "${FAST[@]}" -q -o "$WORK/s.ply" --ascii
+    echo "+ $ALIGN - t.xyz < s.ply"
+    "$ALIGN" - "$WORK/t.xyz" "${FAST[@]}" -q < "$WORK/s.ply" >"$OUT" 2>"$ERR" || fail "PLY on stdin: exit $?"
+    echo "+ $ALIGN - t.xyz < s.xyz"
+    "$ALIGN" - "$WORK/t.xyz" "${FAST[@]}" < "$WORK/s.xyz" >"$OUT" 2>"$ERR"
+    [ $? -eq 2 ] || fail "XYZ on stdin without --source-format must be a usage error"
+    stderr_has 'source-format'
+}
+
+# Every parameter of the library's table is an option in --help, with its
+# default (pkss-info --params is the machine-readable table).
+case_help_params() {
+    [ -n "$INFO" ] || fail "PKSS_INFO not set"
+    "$INFO" --params > "$WORK/params.tsv" || fail "pkss-info --params"
+    "$ALIGN" --help > "$OUT" 2>"$ERR" || fail "--help"
+    local n=0 name id type def lo hi unit choices constraint opt doc
+    # tab is whitespace to `read` (empty fields would merge): use \x1f
+    while IFS=$'\x1f' read -r name id type def lo hi unit choices constraint opt doc; do
+        [ "$name" = name ] && continue
+        n=$((n + 1))
+        grep -Eq -e "^  $opt( |\[|$)" "$OUT" || fail "--help lacks $opt"
+        if [ "$type" != string ]; then
+            grep -A1 -E -e "^  $opt( |\[|$)" "$OUT" | grep -Fq "default $def" ||
+                fail "--help gives no 'default $def' for $opt"
+        fi
+        grep -Fq -- "$doc" "$OUT" || fail "--help lacks the doc of $name"
+    done < <(tr '\t' '\037' < "$WORK/params.tsv")
+    [ "$n" -ge 10 ] || fail "only $n parameters listed"
+    echo "$n parameters checked"
+    # and each option works with a symbolic value where it has one
+    make_pair "$WORK"
+    run 0 "$ALIGN" "$WORK/s.xyz" "$WORK/t.xyz" --backend=reference --cull-stat off \
+        --use-features=on --pca-prealign default --rotation-set euler --rotation-steps 8 -q
+}
+
+# kill -9 while -o is written: the final path holds the old content or the
+# complete new cloud, never a partial file.
+case_kill9_output() {
+    make_cloud "$WORK/big.xyz" 1000000
+    make_cloud "$WORK/t.xyz" 2000
+    local n pid i seen=0 old
+    for n in 0 1 2; do # 2: mid-write with no old file
+        echo "old content" > "$WORK/out.xyz"
+        [ "$n" -eq 2 ] && rm -f "$WORK/out.xyz"
+        old=$(sha256sum < "$WORK/out.xyz" 2>/dev/null)
+        rm -f "$WORK"/.out.xyz.*
+        "$ALIGN" "$WORK/big.xyz" "$WORK/t.xyz" "${FAST[@]}" --points 256 --rotation-steps 4 \
+            --offset-steps 1 -q -o "$WORK/out.xyz" >/dev/null 2>&1 &
+        pid=$!
+        seen=0
+        if [ "$n" -eq 0 ]; then
+            sleep 0.2 # right after the start
+        else
+            for i in $(seq 1 3000); do # mid-write: the temporary file exists
+                if compgen -G "$WORK/.out.xyz.*" >/dev/null; then seen=1; break; fi
+                kill -0 "$pid" 2>/dev/null || break
+                sleep 0.01
+            done
+        fi
+        kill -9 "$pid" 2>/dev/null
+        wait "$pid" 2>/dev/null
+        if [ "$n" -eq 2 ] && [ ! -e "$WORK/out.xyz" ]; then
+            echo "kill -9 ($n): no file at the final path"
+            continue
+        fi
+        [ -e "$WORK/out.xyz" ] || fail "kill -9 ($n) removed the old file"
+        if [ "$(sha256sum < "$WORK/out.xyz")" != "$old" ]; then
+            [ "$(wc -l < "$WORK/out.xyz")" -eq 1000000 ] ||
+                fail "kill -9 ($n) left a partial file at the final path"
+            echo "kill -9 ($n) came after the rename: complete new file"
+        else
+            echo "kill -9 ($n): old content kept"
+        fi
+        [ "$n" -eq 0 ] || [ "$seen" -eq 1 ] ||
+            echo "note: the temporary file was not seen (the write was too quick)"
+    done
+}
+
+# SIGINT cancels the run through the progress callback: exit 130, no output.
+case_sigint() {
+    make_pair "$WORK"
+    echo "old" > "$WORK/r.json"
+    "$ALIGN" "$WORK/s.xyz" "$WORK/t.xyz" --backend reference --rotation-set uniform \
+        --rotation-count 20000 --top-k 32 -v --json "$WORK/r.json" -o "$WORK/new.ply" >"$OUT" 2>"$ERR" &
+    local pid=$! rc i
+    for i in $(seq 1 500); do # wait until the search runs
+        grep -q '\] search' "$ERR" && break
+        sleep 0.02
+    done
+    kill -INT "$pid"
+    wait "$pid"
+    rc=$?
+    echo "exit $rc"
+    [ "$rc" -eq 130 ] || fail "exit $rc after SIGINT, expected 130"
+    stderr_has 'PKSS_ERR_CANCELLED'
+    [ "$(cat "$WORK/r.json")" = old ] || fail "the JSON was changed"
+    [ ! -e "$WORK/new.ply" ] || fail "new.ply was written"
+    ! compgen -G "$WORK/.*.ply.*" >/dev/null || fail "a temporary file was left"
 }
 
 if ! declare -F "case_$CASE" >/dev/null; then
