@@ -17,6 +17,9 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <fcntl.h>
+#include <sys/resource.h>
+#include <time.h>
 #include <unistd.h>
 
 #ifndef PKSS_FUZZ_DIR
@@ -1001,9 +1004,280 @@ static void test_fuzz_regressions(void **state)
     assert_true(seeds > 0);
 }
 
+/* ---------------------------------------- bounded reads (issue #21) */
+
+static double now_s(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+/* Peak resident set of this process in MiB (Linux: ru_maxrss is KiB). */
+static double peak_rss_mib(void)
+{
+    struct rusage u;
+    getrusage(RUSAGE_SELF, &u);
+    return (double)u.ru_maxrss / 1024.0;
+}
+
+/* Reads path and checks the status, a message fragment and that it took
+ * under a second. */
+static void read_fast(const char *path, pkss_io_format f, pkss_io_status st,
+                      const char *needle, size_t *n_out)
+{
+    char err[1024];
+    double *xyz = (double *)1;
+    size_t n = 777;
+    double t0 = now_s();
+    pkss_io_status got = pkss_io_read(path, f, &xyz, &n, err, sizeof err);
+    double dt = now_s() - t0;
+    if (got != st || (needle && !strstr(err, needle)))
+        fail_msg("%s as %s: expected %s with \"%s\", got %s: %s", path,
+                 pkss_io_format_name(f), pkss_io_status_name(st),
+                 needle ? needle : "", pkss_io_status_name(got), err);
+    if (dt > 1.0)
+        fail_msg("%s as %s took %.2f s", path, pkss_io_format_name(f), dt);
+    for (const char *c = err; *c; ++c) /* messages stay printable */
+        assert_true((unsigned char)*c >= 0x20 && (unsigned char)*c < 0x7f);
+    if (n_out)
+        *n_out = n;
+    if (got == PKSS_IO_OK)
+        pkss_io_free(xyz);
+    else
+        assert_null(xyz);
+}
+
+/* Devices of endless data are refused from their first bytes, not read
+ * until memory runs out. KITTI (headerless binary) from a device is the
+ * one case bounded only by the stream cap; it is not read here. */
+static void test_bounded_devices(void **state)
+{
+    (void)state;
+    static const pkss_io_format text[] = {PKSS_IO_PLY, PKSS_IO_PCD,
+                                          PKSS_IO_XYZ, PKSS_IO_OFF,
+                                          PKSS_IO_VTK};
+    if (access("/dev/zero", R_OK) != 0 || access("/dev/urandom", R_OK) != 0)
+        skip();
+    read_fast("/dev/zero", PKSS_IO_AUTO, PKSS_IO_ERR_ARGUMENT,
+              "cannot tell the format", NULL);
+    read_fast("/dev/urandom", PKSS_IO_AUTO, PKSS_IO_ERR_ARGUMENT,
+              "cannot tell the format", NULL);
+    for (size_t i = 0; i < sizeof text / sizeof text[0]; ++i)
+        read_fast("/dev/zero", text[i], PKSS_IO_ERR_FORMAT, NULL, NULL);
+    /* magic checks, deterministic whatever the random bytes are */
+    read_fast("/dev/urandom", PKSS_IO_PLY, PKSS_IO_ERR_FORMAT,
+              "first line is not 'ply'", NULL);
+    read_fast("/dev/urandom", PKSS_IO_VTK, PKSS_IO_ERR_FORMAT, NULL, NULL);
+    assert_true(peak_rss_mib() < 64.0);
+}
+
+/* A 2 GiB sparse file: refused from its first bytes when it is not the
+ * format; with a valid header of 10 vertices, refused for the data after
+ * them without reading the rest (the file is mapped, not copied). */
+static void test_bounded_sparse_file(void **state)
+{
+    (void)state;
+    const off_t big = (off_t)2 << 30;
+    char path[600];
+    size_t n = 0;
+    snprintf(path, sizeof path, "%s/sparse.ply", tmpdir);
+    int fd = open(path, O_CREAT | O_TRUNC | O_WRONLY, 0600);
+    assert_true(fd >= 0);
+    if (ftruncate(fd, big) != 0) {
+        close(fd);
+        remove(path);
+        skip(); /* no sparse files here */
+    }
+    close(fd);
+    read_fast(path, PKSS_IO_AUTO, PKSS_IO_ERR_FORMAT,
+              "first line is not 'ply'", NULL);
+    read_fast(path, PKSS_IO_XYZ, PKSS_IO_ERR_FORMAT, "NUL", NULL);
+    remove(path);
+
+    static const char hdr[] =
+        "ply\nformat binary_little_endian 1.0\nelement vertex 10\n"
+        "property float x\nproperty float y\nproperty float z\nend_header\n";
+    snprintf(path, sizeof path, "%s/sparse_hdr.ply", tmpdir);
+    fd = open(path, O_CREAT | O_TRUNC | O_WRONLY, 0600);
+    assert_true(fd >= 0);
+    assert_int_equal(write(fd, hdr, strlen(hdr)), (ssize_t)strlen(hdr));
+    assert_int_equal(ftruncate(fd, big), 0);
+    close(fd);
+    read_fast(path, PKSS_IO_AUTO, PKSS_IO_ERR_FORMAT,
+              "data after the 10 vertices", &n);
+    assert_int_equal(n, 0);
+    remove(path);
+    assert_true(peak_rss_mib() < 64.0);
+}
+
+/* A file cut mid-body names the byte where it ends. */
+static void test_truncated_offset(void **state)
+{
+    (void)state;
+    buf b = {0};
+    char needle[64];
+    puts_(&b, "ply\nformat binary_little_endian 1.0\nelement vertex 1000\n"
+              "property float x\nproperty float y\nproperty float z\n"
+              "end_header\n");
+    for (int i = 0; i < 500; ++i) {
+        put_f32(&b, (float)i, 0);
+        put_f32(&b, (float)i + 1, 0);
+        put_f32(&b, (float)i + 2, 0);
+    }
+    put(&b, "\1\2\3\4\5\6\7", 7);
+    snprintf(needle, sizeof needle, "truncated at byte %zu", b.n);
+    loaded r = read_mem(b.p, b.n, PKSS_IO_PLY);
+    expect(&r, PKSS_IO_ERR_FORMAT, needle);
+    read_fast(tmp_file("cut.ply", b.p, b.n), PKSS_IO_AUTO, PKSS_IO_ERR_FORMAT,
+              needle, NULL);
+    free(b.p);
+
+    static const char ascii[] =
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+        "property float y\nproperty float z\nend_header\n1 2 3\n4 5";
+    snprintf(needle, sizeof needle, "truncated at byte %zu", strlen(ascii));
+    r = read_str(ascii, PKSS_IO_PLY);
+    expect(&r, PKSS_IO_ERR_FORMAT, needle);
+
+    /* the other formats say it the same way */
+    static const struct {
+        pkss_io_format f;
+        const char *text;
+    } cut[] = {
+        {PKSS_IO_PCD, "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\n"
+                      "COUNT 1 1 1\nWIDTH 3\nHEIGHT 1\nPOINTS 3\n"
+                      "DATA ascii\n1 2 3\n4 5 6\n7.000000 8"},
+        {PKSS_IO_OFF, "OFF\n3 0 0\n1 2 3\n4 5 6\n# cut here\n"},
+        {PKSS_IO_VTK, "# vtk DataFile Version 3.0\nx\nASCII\n"
+                      "DATASET POLYDATA\nPOINTS 3 float\n"
+                      "1 2 3 4 5 6 7.00000000 8"},
+        {PKSS_IO_XYZ, "3\n1 2 3\n4 5 6\n"},
+    };
+    for (size_t i = 0; i < sizeof cut / sizeof cut[0]; ++i) {
+        snprintf(needle, sizeof needle, "truncated at byte %zu",
+                 strlen(cut[i].text));
+        r = read_str(cut[i].text, cut[i].f);
+        expect(&r, PKSS_IO_ERR_FORMAT, needle);
+    }
+}
+
+/* The same rules in every text format: a UTF-8 BOM is accepted; rows past
+ * a declared count, a second x or a second vertex element and decimal
+ * commas are errors that say so. */
+static void test_format_consistency(void **state)
+{
+    (void)state;
+    static const struct {
+        pkss_io_format f;
+        const char *name, *text;
+    } bom[] = {
+        {PKSS_IO_PLY, "bom.noext",
+         "\xEF\xBB\xBFply\nformat ascii 1.0\nelement vertex 1\n"
+         "property float x\nproperty float y\nproperty float z\n"
+         "end_header\n1 2 3\n"},
+        {PKSS_IO_PCD, "bom.pcd",
+         "\xEF\xBB\xBFVERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\n"
+         "COUNT 1 1 1\nWIDTH 1\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\n"
+         "POINTS 1\nDATA ascii\n1 2 3\n"},
+        {PKSS_IO_XYZ, "bom.csv", "\xEF\xBB\xBF" "1,2,3\n"},
+        {PKSS_IO_OFF, "bom.off", "\xEF\xBB\xBFOFF\n1 0 0\n1 2 3\n"},
+        {PKSS_IO_VTK, "bom.vtk",
+         "\xEF\xBB\xBF# vtk DataFile Version 3.0\nx\nASCII\n"
+         "DATASET POLYDATA\nPOINTS 1 float\n1 2 3\n"},
+    };
+    for (size_t i = 0; i < sizeof bom / sizeof bom[0]; ++i) {
+        loaded r = read_str(bom[i].text, bom[i].f);
+        expect(&r, PKSS_IO_OK, NULL);
+        assert_int_equal(r.n, 1);
+        assert_point(r.xyz, 0, 1, 2, 3);
+        pkss_io_free(r.xyz);
+        if (bom[i].f != PKSS_IO_XYZ) { /* content sniffing */
+            r = read_str(bom[i].text, PKSS_IO_AUTO);
+            expect(&r, PKSS_IO_OK, NULL);
+            pkss_io_free(r.xyz);
+        }
+        read_fast(tmp_file(bom[i].name, bom[i].text, strlen(bom[i].text)),
+                  PKSS_IO_AUTO, PKSS_IO_OK, NULL, NULL);
+    }
+
+    loaded r = read_str("ply\nformat ascii 1.0\nelement vertex 1\n"
+                        "property float x\nproperty float y\n"
+                        "property float z\nend_header\n1 2 3\n4 5 6\n",
+                        PKSS_IO_PLY);
+    expect(&r, PKSS_IO_ERR_FORMAT, "after the 1 vertices");
+    r = read_str("VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\n"
+                 "COUNT 1 1 1\nWIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n"
+                 "1 2 3\n4 5 6\n",
+                 PKSS_IO_PCD);
+    expect(&r, PKSS_IO_ERR_FORMAT, "after the 1 points");
+    {
+        buf b = {0};
+        puts_(&b, "VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\n"
+                  "COUNT 1 1 1\nWIDTH 1\nHEIGHT 1\nPOINTS 1\n"
+                  "DATA binary\n");
+        for (int k = 0; k < 6; ++k)
+            put_f32(&b, (float)k, 0);
+        r = read_mem(b.p, b.n, PKSS_IO_PCD);
+        expect(&r, PKSS_IO_ERR_FORMAT, "after the 1 points");
+        b.n = 0;
+        puts_(&b, "ply\nformat binary_big_endian 1.0\nelement vertex 1\n"
+                  "property float x\nproperty float y\nproperty float z\n"
+                  "end_header\n");
+        for (int k = 0; k < 6; ++k)
+            put_f32(&b, (float)k, 1);
+        r = read_mem(b.p, b.n, PKSS_IO_PLY);
+        expect(&r, PKSS_IO_ERR_FORMAT, "after the 1 vertices");
+        free(b.p);
+    }
+    r = read_str("2\n1 2 3\n4 5 6\n7 8 9\n", PKSS_IO_XYZ);
+    expect(&r, PKSS_IO_ERR_FORMAT, "says 2 points but 3 rows");
+    r = read_str("ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"
+                 "property float y\nproperty float z\nproperty float x\n"
+                 "end_header\n1 2 3 4\n",
+                 PKSS_IO_PLY);
+    expect(&r, PKSS_IO_ERR_FORMAT, "second property 'x'");
+    r = read_str("ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"
+                 "property float y\nproperty float z\nelement vertex 1\n"
+                 "property float x\nproperty float y\nproperty float z\n"
+                 "end_header\n1 2 3\n4 5 6\n",
+                 PKSS_IO_PLY);
+    expect(&r, PKSS_IO_ERR_FORMAT, "second 'vertex' element");
+
+    r = read_str("1,5 2,5 3,5\n", PKSS_IO_XYZ);
+    expect(&r, PKSS_IO_ERR_FORMAT, "decimal commas");
+    r = read_str("1,5;2,5;3,5\n", PKSS_IO_XYZ);
+    expect(&r, PKSS_IO_ERR_FORMAT, "decimal commas");
+    r = read_str("x y z\n0,25\t1,5\t-2,0\n", PKSS_IO_XYZ);
+    expect(&r, PKSS_IO_ERR_FORMAT, "decimal commas");
+    /* not decimal commas: CSV columns, then blank-separated extras */
+    r = read_str("1.0,2.0,3.0 255 255 255\n1,2,3 7\n", PKSS_IO_XYZ);
+    expect(&r, PKSS_IO_OK, NULL);
+    assert_int_equal(r.n, 2);
+    assert_point(r.xyz, 1, 1, 2, 3);
+    pkss_io_free(r.xyz);
+
+    /* every byte value in a header token comes back escaped */
+    unsigned char junk[300];
+    memcpy(junk, "VERSION .7\n", 11);
+    for (size_t i = 11; i < sizeof junk; ++i)
+        junk[i] = (unsigned char)(i * 37 + 1);
+    static const pkss_io_format fm[] = {PKSS_IO_PLY, PKSS_IO_PCD, PKSS_IO_XYZ,
+                                        PKSS_IO_OFF, PKSS_IO_VTK};
+    for (size_t k = 0; k < sizeof fm / sizeof fm[0]; ++k) {
+        r = read_mem(junk, sizeof junk, fm[k]);
+        assert_int_not_equal(r.st, PKSS_IO_OK);
+        for (const char *c = r.err; *c; ++c)
+            assert_true((unsigned char)*c >= 0x20 && (unsigned char)*c < 0x7f);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        /* first, so the peak-RSS checks see no earlier test's memory */
+        cmocka_unit_test(test_bounded_devices),
+        cmocka_unit_test(test_bounded_sparse_file),
         cmocka_unit_test(test_names),
         cmocka_unit_test(test_ply_ascii),
         cmocka_unit_test(test_ply_binary_types),
@@ -1018,6 +1292,8 @@ int main(void)
         cmocka_unit_test(test_files_and_writer),
         cmocka_unit_test(test_shared_data),
         cmocka_unit_test(test_shared_data_converted_match),
+        cmocka_unit_test(test_truncated_offset),
+        cmocka_unit_test(test_format_consistency),
         cmocka_unit_test(test_fuzz_regressions),
     };
     return cmocka_run_group_tests_name("test_io", tests, setup_tmp,

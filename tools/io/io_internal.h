@@ -30,7 +30,7 @@ pkss_io_status io_fail(io_ctx *ctx, pkss_io_status status, const char *fmt,
     ;
 
 /* Copies up to 40 bytes of a token into buf (size >= 48) for messages:
- * non-printable bytes become '?', and "..." marks a cut. */
+ * non-printable bytes become \xNN, and "..." marks a cut. */
 const char *io_quote(const char *s, size_t len, char *buf, size_t buf_size);
 
 /* -------------------------------------------------------------- numbers */

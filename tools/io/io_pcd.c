@@ -238,6 +238,7 @@ pkss_io_status io_read_pcd(io_ctx *ctx, double **xyz, size_t *n)
     uint64_t off[3] = {0, 0, 0}; /* byte offset (AoS) or token index */
     double *out = NULL;
     unsigned char *raw = NULL;
+    io_cursor ac; /* ascii data; still used after the last point */
 
     st = pcd_parse_header(ctx, &h, &start);
     if (st != PKSS_IO_OK)
@@ -322,7 +323,6 @@ pkss_io_status io_read_pcd(io_ctx *ctx, double **xyz, size_t *n)
     left = ctx->size - start;
 
     if (h.data == 0) { /* ------------------------------------- ascii */
-        io_cursor c;
         uint64_t p, k;
         char q[64];
         /* token index of x, y, z within a point */
@@ -335,8 +335,9 @@ pkss_io_status io_read_pcd(io_ctx *ctx, double **xyz, size_t *n)
         }
         if (io_mul_u64(np, 2 * tokens, &need) != 0 || need > left + 1) {
             st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
-                         "PCD: header says %llu points of %llu values but "
-                         "the file holds only %llu bytes of data",
+                         "PCD: truncated at byte %llu: expected %llu points "
+                         "of %llu values, got only %llu bytes of data",
+                         (unsigned long long)ctx->size,
                          (unsigned long long)np, (unsigned long long)tokens,
                          (unsigned long long)left);
             goto done;
@@ -346,27 +347,28 @@ pkss_io_status io_read_pcd(io_ctx *ctx, double **xyz, size_t *n)
             st = PKSS_IO_ERR_NOMEM;
             goto done;
         }
-        io_cursor_init(&c, ctx->data, ctx->size);
-        c.p += start;
+        io_cursor_init(&ac, ctx->data, ctx->size);
+        ac.p += start;
         for (p = 0; p < np; p++) {
             for (k = 0; k < tokens; k++) {
                 const char *t;
                 size_t tl;
                 int axis = k == off[0] ? 0 : k == off[1] ? 1 : k == off[2] ? 2
                                                                             : -1;
-                if (!io_next_token(&c, &t, &tl)) {
+                if (!io_next_token(&ac, &t, &tl)) {
                     st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
-                                 "PCD: the file ends at point %llu of %llu "
-                                 "(header POINTS larger than the data)",
-                                 (unsigned long long)p,
-                                 (unsigned long long)np);
+                                 "PCD: truncated at byte %llu: expected %llu "
+                                 "points, got %llu",
+                                 (unsigned long long)ctx->size,
+                                 (unsigned long long)np,
+                                 (unsigned long long)p);
                     goto done;
                 }
                 if (axis >= 0 && io_parse_double(t, tl, &out[3 * p + axis])) {
                     st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
                                  "PCD: line %lu: point %llu: '%s' is not a "
                                  "number",
-                                 (unsigned long)c.line, (unsigned long long)p,
+                                 (unsigned long)ac.line, (unsigned long long)p,
                                  io_quote(t, tl, q, sizeof q));
                     goto done;
                 }
@@ -388,12 +390,13 @@ pkss_io_status io_read_pcd(io_ctx *ctx, double **xyz, size_t *n)
         if (h.data == 1) {
             if (total > left) {
                 st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
-                             "PCD: header says %llu points of %llu bytes "
-                             "(%llu bytes) but the file holds only %llu bytes "
-                             "of data",
+                             "PCD: truncated at byte %llu: expected %llu "
+                             "points of %llu bytes, got %llu (%llu bytes of "
+                             "data)",
+                             (unsigned long long)ctx->size,
                              (unsigned long long)np,
                              (unsigned long long)point_size,
-                             (unsigned long long)total,
+                             (unsigned long long)(left / point_size),
                              (unsigned long long)left);
                 goto done;
             }
@@ -478,6 +481,28 @@ pkss_io_status io_read_pcd(io_ctx *ctx, double **xyz, size_t *n)
             for (i = 0; i < 3; i++)
                 out[3 * p + i] = io_get_value(
                     base + start3[i] + p * stride[i], h.f[fi[i]].type, 0);
+    }
+    /* Data past POINTS means the header and the data disagree (as in PLY):
+     * refuse rather than guess. */
+    if (h.data == 0) {
+        const char *t;
+        size_t tl;
+        if (io_next_token(&ac, &t, &tl)) {
+            st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                         "PCD: data after the %llu points the header "
+                         "declares (byte %llu)",
+                         (unsigned long long)np,
+                         (unsigned long long)(t - (const char *)ctx->data));
+            goto done;
+        }
+    } else if (h.data == 1 && np * point_size < left) {
+        st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                     "PCD: data after the %llu points the header declares "
+                     "(byte %llu, %llu bytes more)",
+                     (unsigned long long)np,
+                     (unsigned long long)(start + np * point_size),
+                     (unsigned long long)(left - np * point_size));
+        goto done;
     }
     *xyz = out;
     *n = (size_t)np;

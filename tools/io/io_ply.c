@@ -238,8 +238,12 @@ static pkss_io_status ply_parse_header(io_ctx *ctx, ply_header *h,
                 int *slot = name[0] == 'x' ? &el->ix
                             : name[0] == 'y' ? &el->iy
                                              : &el->iz;
-                if (*slot < 0)
-                    *slot = (int)el->n_props;
+                if (*slot >= 0)
+                    return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                                   "PLY: header line %lu: element '%s' has a "
+                                   "second property '%c'",
+                                   (unsigned long)line_no, el->name, name[0]);
+                *slot = (int)el->n_props;
                 if (p.count_type != IO_T_INVALID)
                     el->xyz_list = 1;
             }
@@ -339,9 +343,11 @@ static pkss_io_status skip_binary(io_ctx *ctx, const ply_element *el,
     return PKSS_IO_OK;
 truncated:
     return io_fail(ctx, PKSS_IO_ERR_FORMAT,
-                   "PLY: the file ends inside element '%s' row %llu of %llu",
-                   el->name, (unsigned long long)r,
-                   (unsigned long long)el->count);
+                   "PLY: truncated at byte %llu: expected %llu '%s' rows, "
+                   "got %llu",
+                   (unsigned long long)ctx->size,
+                   (unsigned long long)el->count, el->name,
+                   (unsigned long long)r);
 }
 
 static pkss_io_status read_binary_vertices(io_ctx *ctx,
@@ -384,10 +390,10 @@ static pkss_io_status read_binary_vertices(io_ctx *ctx,
     return PKSS_IO_OK;
 truncated:
     return io_fail(ctx, PKSS_IO_ERR_FORMAT,
-                   "PLY: the file ends inside vertex %llu of %llu (offset "
-                   "%llu)",
-                   (unsigned long long)r, (unsigned long long)el->count,
-                   (unsigned long long)pos);
+                   "PLY: truncated at byte %llu: expected %llu vertices, got "
+                   "%llu",
+                   (unsigned long long)ctx->size,
+                   (unsigned long long)el->count, (unsigned long long)r);
 }
 
 /* -------------------------------------------------------------- ascii */
@@ -396,10 +402,11 @@ static pkss_io_status ascii_end(io_ctx *ctx, const ply_element *el,
                                 uint64_t r, const io_cursor *c)
 {
     return io_fail(ctx, PKSS_IO_ERR_FORMAT,
-                   "PLY: the file ends inside element '%s' row %llu of %llu "
-                   "(line %lu)",
-                   el->name, (unsigned long long)r,
-                   (unsigned long long)el->count, (unsigned long)c->line);
+                   "PLY: truncated at byte %llu (line %lu): expected %llu "
+                   "'%s' rows, got %llu",
+                   (unsigned long long)ctx->size, (unsigned long)c->line,
+                   (unsigned long long)el->count, el->name,
+                   (unsigned long long)r);
 }
 
 static pkss_io_status ascii_list_len(io_ctx *ctx, const ply_element *el,
@@ -467,7 +474,7 @@ static pkss_io_status ascii_rows(io_ctx *ctx, const ply_element *el,
 pkss_io_status io_read_ply(io_ctx *ctx, double **xyz, size_t *n)
 {
     ply_header h;
-    size_t pos = 0, e, vi;
+    size_t pos = 0, e, vi = 0;
     pkss_io_status st;
     ply_element *v = NULL;
     io_cursor c;
@@ -480,10 +487,15 @@ pkss_io_status io_read_ply(io_ctx *ctx, double **xyz, size_t *n)
         ply_free(&h);
         return st;
     }
-    for (vi = 0; vi < h.n_el; vi++)
-        if (strcmp(h.el[vi].name, "vertex") == 0) {
-            v = &h.el[vi];
-            break;
+    for (e = 0; e < h.n_el; e++)
+        if (strcmp(h.el[e].name, "vertex") == 0) {
+            if (v) {
+                st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                             "PLY: the header declares a second 'vertex' element");
+                goto done;
+            }
+            v = &h.el[e];
+            vi = e;
         }
     if (!v) {
         st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
@@ -529,11 +541,14 @@ pkss_io_status io_read_ply(io_ctx *ctx, double **xyz, size_t *n)
     if (io_mul_u64(v->count, row_min_bytes(v, ascii), &need) != 0 ||
         need > left + (ascii ? 1 : 0)) {
         st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
-                     "PLY: header says %llu vertices (%s%llu bytes each) but "
-                     "the file holds only %llu bytes of vertex data",
+                     "PLY: truncated at byte %llu: expected %llu vertices "
+                     "(%s%llu bytes each), got %llu bytes of vertex data "
+                     "(%s%llu vertices)",
+                     (unsigned long long)ctx->size,
                      (unsigned long long)v->count, ascii ? "at least " : "",
                      (unsigned long long)row_min_bytes(v, ascii),
-                     (unsigned long long)left);
+                     (unsigned long long)left, ascii ? "at most " : "",
+                     (unsigned long long)(left / row_min_bytes(v, ascii)));
         goto done;
     }
     out = io_alloc_points(ctx, v->count);
@@ -545,6 +560,26 @@ pkss_io_status io_read_ply(io_ctx *ctx, double **xyz, size_t *n)
         st = ascii_rows(ctx, v, &c, out);
     else
         st = read_binary_vertices(ctx, v, be, pos, out);
+    /* Rows past the declared count (vertex the last element; ascii: any
+     * token, binary with fixed rows: any byte) mean the header and the
+     * data disagree: refuse rather than guess. */
+    const char *tok;
+    size_t tlen;
+    if (st == PKSS_IO_OK && ascii && vi + 1 == h.n_el &&
+        io_next_token(&c, &tok, &tlen))
+        st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                     "PLY: data after the %llu vertices the header declares "
+                     "(byte %llu)",
+                     (unsigned long long)v->count,
+                     (unsigned long long)(tok - (const char *)ctx->data));
+    else if (st == PKSS_IO_OK && !ascii && vi + 1 == h.n_el &&
+             row_is_fixed(v) && need < left)
+        st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                     "PLY: data after the %llu vertices the header declares "
+                     "(byte %llu, %llu bytes more)",
+                     (unsigned long long)v->count,
+                     (unsigned long long)(pos + need),
+                     (unsigned long long)(left - need));
     if (st != PKSS_IO_OK) {
         free(out);
         goto done;

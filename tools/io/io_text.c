@@ -37,6 +37,42 @@ static pkss_io_status check_nul(io_ctx *ctx, const char *what)
     return PKSS_IO_OK;
 }
 
+static int is_digit(char ch) { return ch >= '0' && ch <= '9'; }
+
+/* A line written with decimal commas ("0,75 1,5 2,0" or "0,75;1,5;2,0"):
+ * its first three fields, split at blanks or ';', each hold exactly one
+ * comma, between digits, and no '.'. Read with commas between columns it
+ * would give wrong numbers, so it is refused by name. A CSV row followed
+ * by blank-separated columns ("1.0,2.0,3.0 255 0 0", "1,2,3 7") is not
+ * one. */
+static int decimal_commas(const char *s, const char *e)
+{
+    const char *p = s;
+    int fields = 0;
+    while (fields < 3) {
+        int commas = 0, ok = 1;
+        while (p < e && (*p == ' ' || *p == '\t' || *p == ';'))
+            p++;
+        if (p >= e)
+            return 0;
+        const char *f = p;
+        while (p < e && *p != ' ' && *p != '\t' && *p != ';') {
+            if (*p == '.')
+                ok = 0;
+            else if (*p == ',') {
+                commas++;
+                if (p == f || p + 1 >= e || !is_digit(p[-1]) || !is_digit(p[1]))
+                    ok = 0;
+            }
+            p++;
+        }
+        if (!ok || commas != 1)
+            return 0;
+        fields++;
+    }
+    return 1;
+}
+
 /* Grows *buf to hold at least need points. */
 static int grow(double **buf, size_t *cap, size_t need)
 {
@@ -75,6 +111,14 @@ pkss_io_status io_read_xyz(io_ctx *ctx, double **xyz, size_t *n)
     io_cursor_init(&c, ctx->data, ctx->size);
     while (io_next_line(&c, &line, &len, &line_no)) {
         const char *s = line, *e = line + strip_comment(line, len);
+        if (decimal_commas(s, e)) {
+            free(out);
+            return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                           "XYZ: line %lu: '%s' looks like decimal commas; "
+                           "write numbers with '.' (columns may be separated "
+                           "by blanks or commas)",
+                           (unsigned long)line_no, io_quote(line, len, q, sizeof q));
+        }
         const char *tok[3];
         size_t tl[3], nt = 0, more = 0;
         double v[3];
@@ -147,6 +191,15 @@ pkss_io_status io_read_xyz(io_ctx *ctx, double **xyz, size_t *n)
                            (unsigned long)header, header == 1 ? "" : "s");
         return io_fail(ctx, PKSS_IO_ERR_EMPTY,
                        "XYZ: no points (only blank, comment or count lines)");
+    }
+    if (have_count && count > rows) {
+        free(out);
+        return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                       "XYZ: truncated at byte %llu: line %lu says %llu "
+                       "points but %lu rows follow",
+                       (unsigned long long)ctx->size,
+                       (unsigned long)count_line, (unsigned long long)count,
+                       (unsigned long)rows);
     }
     if (have_count && count != rows) {
         free(out);
@@ -276,9 +329,11 @@ pkss_io_status io_read_off(io_ctx *ctx, double **xyz, size_t *n)
         if (!next_content_line(&c, &s, &e, &line_no)) {
             free(out);
             return io_fail(ctx, PKSS_IO_ERR_FORMAT,
-                           "OFF: the file ends at vertex %llu of %llu",
-                           (unsigned long long)i,
-                           (unsigned long long)counts[0]);
+                           "OFF: truncated at byte %llu: expected %llu "
+                           "vertices, got %llu",
+                           (unsigned long long)ctx->size,
+                           (unsigned long long)counts[0],
+                           (unsigned long long)i);
         }
         for (a = 0; a < 3; a++) {
             if (!io_line_token(&s, e, 0, &t, &l)) {

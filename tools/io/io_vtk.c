@@ -164,16 +164,19 @@ pkss_io_status io_read_vtk(io_ctx *ctx, double **xyz, size_t *n)
         if (io_mul_u64(np, 3 * io_type_size(type), &need) != 0 ||
             need > left)
             return io_fail(ctx, PKSS_IO_ERR_FORMAT,
-                           "VTK: header says %llu points (%lu bytes each) but "
-                           "the file holds only %llu bytes of data",
+                           "VTK: truncated at byte %llu: expected %llu points "
+                           "(%lu bytes each), got %llu bytes of data",
+                           (unsigned long long)ctx->size,
                            (unsigned long long)np,
                            (unsigned long)(3 * io_type_size(type)),
                            (unsigned long long)left);
     } else if (io_mul_u64(np, 6, &need) != 0 || need > left + 1) {
         return io_fail(ctx, PKSS_IO_ERR_FORMAT,
-                       "VTK: header says %llu points but the file holds only "
-                       "%llu bytes of data (at least 6 per point in ASCII)",
-                       (unsigned long long)np, (unsigned long long)left);
+                       "VTK: truncated at byte %llu: expected %llu points "
+                       "(at least 6 bytes each in ASCII), got %llu bytes of "
+                       "data",
+                       (unsigned long long)ctx->size, (unsigned long long)np,
+                       (unsigned long long)left);
     }
     out = io_alloc_points(ctx, np);
     if (!out)
@@ -188,9 +191,11 @@ pkss_io_status io_read_vtk(io_ctx *ctx, double **xyz, size_t *n)
             if (!io_next_token(&c, &t, &l)) {
                 free(out);
                 return io_fail(ctx, PKSS_IO_ERR_FORMAT,
-                               "VTK: the file ends at point %llu of %llu",
-                               (unsigned long long)(i / 3),
-                               (unsigned long long)np);
+                               "VTK: truncated at byte %llu: expected %llu "
+                               "points, got %llu",
+                               (unsigned long long)ctx->size,
+                               (unsigned long long)np,
+                               (unsigned long long)(i / 3));
             }
             if (io_parse_double(t, l, &out[i]) != 0) {
                 free(out);

@@ -1,7 +1,8 @@
 /* SPDX-License-Identifier: MIT
- * pkss_io.c -- format names, whole-file reading, dispatch to the parsers,
+ * pkss_io.c -- format names, bounded file reading, dispatch to the parsers,
  * the PLY writer and the helpers declared in io_internal.h.
  */
+#define _POSIX_C_SOURCE 200809L /* fileno, fstat, mmap */
 #include "io_internal.h"
 
 #include <ctype.h>
@@ -11,6 +12,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
 
 /* ================================================================ errors */
 
@@ -26,16 +29,20 @@ pkss_io_status io_fail(io_ctx *ctx, pkss_io_status status, const char *fmt,
     return status;
 }
 
+/* Non-printable bytes are shown as \xNN, so a message names them. */
 const char *io_quote(const char *s, size_t len, char *buf, size_t buf_size)
 {
     size_t i, o = 0, lim = len > 40 ? 40 : len;
     if (buf_size < 48)
         return "";
-    for (i = 0; i < lim; i++) {
+    for (i = 0; i < lim && o + 8 < buf_size; i++) {
         unsigned char ch = (unsigned char)s[i];
-        buf[o++] = (ch >= 0x20 && ch < 0x7f) ? (char)ch : '?';
+        if (ch >= 0x20 && ch < 0x7f)
+            buf[o++] = (char)ch;
+        else
+            o += (size_t)snprintf(buf + o, buf_size - o, "\\x%02X", ch);
     }
-    if (len > lim) {
+    if (i < len && o + 4 <= buf_size) {
         memcpy(buf + o, "...", 3);
         o += 3;
     }
@@ -374,6 +381,11 @@ pkss_io_format pkss_io_format_from_path(const char *path)
     return PKSS_IO_AUTO;
 }
 
+static int has_bom(const unsigned char *d, size_t n)
+{
+    return n >= 3 && memcmp(d, "\xEF\xBB\xBF", 3) == 0;
+}
+
 static int starts_with(const unsigned char *d, size_t n, const char *w)
 {
     size_t l = strlen(w);
@@ -386,6 +398,10 @@ pkss_io_format pkss_io_format_from_content(const void *data, size_t size)
     size_t i;
     if (!d || size == 0)
         return PKSS_IO_AUTO;
+    if (has_bom(d, size)) {
+        d += 3;
+        size -= 3;
+    }
     if (starts_with(d, size, "ply\n") || starts_with(d, size, "ply\r\n"))
         return PKSS_IO_PLY;
     if (starts_with(d, size, "# vtk DataFile"))
@@ -435,6 +451,13 @@ static pkss_io_status parse(io_ctx *ctx, pkss_io_format fmt, double **xyz,
                             size_t *n)
 {
     pkss_io_status st;
+    /* A UTF-8 byte order mark is accepted before every text header alike
+     * (KITTI is binary from its first byte). */
+    if (fmt != PKSS_IO_KITTI && ctx->size >= 3 &&
+        memcmp(ctx->data, "\xEF\xBB\xBF", 3) == 0) {
+        ctx->data += 3;
+        ctx->size -= 3;
+    }
     if (ctx->size == 0)
         return io_fail(ctx, PKSS_IO_ERR_EMPTY, "%s: the file is empty (0 bytes)",
                        display_name(fmt));
@@ -487,52 +510,126 @@ pkss_io_status pkss_io_read_memory(const void *data, size_t size,
     return parse(&ctx, fmt, xyz, n);
 }
 
-/* Reads a whole stream; works for pipes too. *buf is malloc'd. */
-static pkss_io_status slurp(FILE *f, const char *path, unsigned char **buf,
-                            size_t *size, char *err, size_t err_size)
+/* The first bytes, read and checked before the rest. */
+#define IO_PREFIX 4096
+/* Pipes, devices and standard input are read up to this many bytes; a
+ * regular file up to its size (st_size), never more. */
+#define IO_STREAM_CAP ((size_t)1 << 30)
+
+/* First occurrence of w (wl bytes) in d[0..n). */
+static const unsigned char *find_bytes(const unsigned char *d, size_t n,
+                                       const char *w, size_t wl)
 {
-    size_t cap = 1 << 16, len = 0;
-    unsigned char *b = NULL;
-    long hint = -1;
-    if (fseek(f, 0, SEEK_END) == 0) {
-        hint = ftell(f);
-        if (fseek(f, 0, SEEK_SET) != 0)
-            hint = -1;
+    for (size_t i = 0; i + wl <= n; ++i)
+        if (d[i] == (unsigned char)w[0] && memcmp(d + i, w, wl) == 0)
+            return d + i;
+    return NULL;
+}
+
+/* 0 when the first bytes cannot begin a file of format fmt: a text format
+ * with a NUL byte, or a header without its magic. Conservative: 1 when in
+ * doubt (the parser decides). */
+static int prefix_fits(pkss_io_format fmt, const unsigned char *d, size_t n)
+{
+    if (has_bom(d, n) && fmt != PKSS_IO_KITTI) {
+        d += 3;
+        n -= 3;
     }
-    clearerr(f);
-    /* The size is only a hint (+1 to see EOF without a realloc): special
-     * files and directories report nonsense, so start at most at 64 MiB
-     * and grow while data keeps coming. */
-    if (hint >= 0 && (unsigned long)hint < ((unsigned long)1 << 26))
-        cap = (size_t)hint + 1;
-    else if (hint >= 0)
-        cap = (size_t)1 << 26;
-    b = (unsigned char *)malloc(cap);
-    if (!b) {
-        set_err(err, err_size, "%s: out of memory reading %lu bytes", path,
-                (unsigned long)cap);
+    if (fmt == PKSS_IO_KITTI || n == 0)
+        return 1;
+    if (fmt == PKSS_IO_PLY)
+        return n < 5 ? memcmp(d, "ply\n", n < 4 ? n : 4) == 0
+                     : starts_with(d, n, "ply\n") || starts_with(d, n, "ply\r\n");
+    if (fmt == PKSS_IO_VTK)
+        return n < 14 || starts_with(d, n, "# vtk DataFile");
+    /* text formats: the header (PCD: up to its DATA line) has no NUL */
+    const unsigned char *data = fmt == PKSS_IO_PCD
+        ? find_bytes(d, n, "\nDATA binary", 12) : NULL;
+    size_t upto = data ? (size_t)(data - d) : n;
+    return memchr(d, 0, upto) == NULL;
+}
+
+/* Reads a file or stream whole, bounded: a regular file by its size, a
+ * stream by IO_STREAM_CAP. The first IO_PREFIX bytes are checked against
+ * the format first, so a wrong file (/dev/zero, a huge file of another
+ * kind) is refused after reading them. *fmt is resolved from the content
+ * when it is PKSS_IO_AUTO. *buf is malloc'd, or mapped when *mapped is
+ * set (a regular file larger than the prefix). */
+static pkss_io_status read_bounded(FILE *f, const char *path,
+                                   pkss_io_format *fmt, unsigned char **buf,
+                                   size_t *size, int *mapped, char *err,
+                                   size_t err_size)
+{
+    struct stat st;
+    int regular = fstat(fileno(f), &st) == 0 && S_ISREG(st.st_mode);
+    if (fstat(fileno(f), &st) == 0 && S_ISDIR(st.st_mode)) {
+        set_err(err, err_size, "%s: is a directory", path);
+        return PKSS_IO_ERR_OPEN;
+    }
+    if (regular && (uintmax_t)st.st_size >= (uintmax_t)SIZE_MAX) {
+        set_err(err, err_size, "%s: file too large", path);
         return PKSS_IO_ERR_NOMEM;
     }
+    size_t limit = regular ? (size_t)st.st_size : IO_STREAM_CAP;
+    size_t cap = limit < IO_PREFIX ? limit + 1 : IO_PREFIX, len = 0;
+    unsigned char *b = (unsigned char *)malloc(cap);
+    if (!b) {
+        set_err(err, err_size, "%s: out of memory", path);
+        return PKSS_IO_ERR_NOMEM;
+    }
+    int checked = 0;
     for (;;) {
-        size_t got;
-        if (len == cap) {
-            unsigned char *nb;
-            if (cap > SIZE_MAX / 2) {
-                free(b);
-                set_err(err, err_size, "%s: file too large", path);
-                return PKSS_IO_ERR_NOMEM;
+        if (!checked && (len >= IO_PREFIX || len == limit || feof(f))) {
+            checked = 1;
+            if (*fmt == PKSS_IO_AUTO)
+                *fmt = pkss_io_format_from_content(b, len);
+            if (*fmt == PKSS_IO_AUTO || !prefix_fits(*fmt, b, len))
+                break; /* unknown, or the parser names what is wrong from these bytes */
+            if (regular && cap < limit + 1) {
+                /* Map a regular file rather than copy it: only the pages
+                 * the parser touches become resident, so a huge or sparse
+                 * file whose header declares a few points costs a few
+                 * pages. A failed map falls back to reading it whole.
+                 * (Shrinking the file while it is read raises SIGBUS.) */
+                void *m = mmap(NULL, limit, PROT_READ, MAP_PRIVATE,
+                               fileno(f), 0);
+                if (m != MAP_FAILED) {
+                    free(b);
+                    *buf = (unsigned char *)m;
+                    *size = limit;
+                    *mapped = 1;
+                    return PKSS_IO_OK;
+                }
             }
-            nb = (unsigned char *)realloc(b, cap * 2);
+            if (regular && cap < limit + 1) { /* all of it, in one block */
+                unsigned char *nb = (unsigned char *)realloc(b, limit + 1);
+                if (!nb) {
+                    free(b);
+                    set_err(err, err_size, "%s: out of memory reading %zu bytes",
+                            path, limit);
+                    return PKSS_IO_ERR_NOMEM;
+                }
+                b = nb;
+                cap = limit + 1;
+            }
+        }
+        if (len == limit)
+            break;
+        if (len == cap) {
+            size_t grow = cap * 2 < limit + 1 ? cap * 2 : limit + 1;
+            unsigned char *nb = (unsigned char *)realloc(b, grow);
             if (!nb) {
                 free(b);
-                set_err(err, err_size, "%s: out of memory after %lu bytes",
-                        path, (unsigned long)len);
+                set_err(err, err_size, "%s: out of memory after %zu bytes", path, len);
                 return PKSS_IO_ERR_NOMEM;
             }
             b = nb;
-            cap *= 2;
+            cap = grow;
         }
-        got = fread(b + len, 1, cap - len, f);
+        size_t want = cap - len;
+        if (!checked && len + want > IO_PREFIX)
+            want = IO_PREFIX - len;
+        size_t got = fread(b + len, 1, want, f);
         len += got;
         if (got == 0) {
             if (ferror(f)) {
@@ -542,18 +639,36 @@ static pkss_io_status slurp(FILE *f, const char *path, unsigned char **buf,
                         e ? strerror(e) : "unknown error");
                 return PKSS_IO_ERR_OPEN;
             }
-            break;
+            if (checked)
+                break;
         }
+    }
+    if (!regular && len == limit && fgetc(f) != EOF) {
+        free(b);
+        set_err(err, err_size,
+                "%s: more than %zu bytes from a pipe or device (the limit for "
+                "streams); read it from a regular file",
+                path, (size_t)IO_STREAM_CAP);
+        return PKSS_IO_ERR_FORMAT;
     }
     *buf = b;
     *size = len;
     return PKSS_IO_OK;
 }
 
+static void release(unsigned char *buf, size_t size, int mapped)
+{
+    if (mapped)
+        munmap(buf, size);
+    else
+        free(buf);
+}
+
 pkss_io_status pkss_io_read(const char *path, pkss_io_format fmt,
                             double **xyz, size_t *n, char *err,
                             size_t err_size)
 {
+    int mapped = 0;
     FILE *f;
     unsigned char *buf = NULL;
     size_t size = 0;
@@ -586,23 +701,20 @@ pkss_io_status pkss_io_read(const char *path, pkss_io_format fmt,
         return PKSS_IO_ERR_OPEN;
     }
     errno = 0;
-    st = slurp(f, path, &buf, &size, err, err_size);
+    st = read_bounded(f, path, &fmt, &buf, &size, &mapped, err, err_size);
     if (!is_stdin)
         fclose(f);
     if (st != PKSS_IO_OK)
         return st;
 
-    if (fmt == PKSS_IO_AUTO) {
-        fmt = pkss_io_format_from_content(buf, size);
-        if (fmt == PKSS_IO_AUTO) {
-            free(buf);
-            set_err(err, err_size,
-                    "%s: cannot tell the format from the extension or the "
-                    "content (known: .ply .pcd .xyz .txt .csv .pts .off .bin "
-                    ".vtk); name it explicitly",
-                    path);
-            return PKSS_IO_ERR_ARGUMENT;
-        }
+    if (fmt == PKSS_IO_AUTO) { /* read_bounded looked at the content */
+        release(buf, size, mapped);
+        set_err(err, err_size,
+                "%s: cannot tell the format from the extension or the "
+                "content (known: .ply .pcd .xyz .txt .csv .pts .off .bin "
+                ".vtk); name it explicitly",
+                path);
+        return PKSS_IO_ERR_ARGUMENT;
     }
     msg[0] = '\0';
     ctx.data = buf;
@@ -610,7 +722,7 @@ pkss_io_status pkss_io_read(const char *path, pkss_io_format fmt,
     ctx.err = msg;
     ctx.err_size = sizeof msg;
     st = parse(&ctx, fmt, xyz, n);
-    free(buf);
+    release(buf, size, mapped);
     if (st != PKSS_IO_OK)
         set_err(err, err_size, "%s: %s", path, msg);
     return st;

@@ -6,7 +6,18 @@
  * n x 3 double array (free it with pkss_io_free), or a status and a message
  * in err naming the problem (file, line or byte offset where it helps).
  * Readers never crash or hang on malformed input: sizes in headers are
- * checked against the data actually present before allocation.
+ * checked against the data actually present before allocation. Reading is
+ * bounded: the first 4 KB are checked against the format before the rest
+ * is read (so /dev/zero or a huge file of another kind fails at once), a
+ * regular file is mapped (only the pages the parser touches are read) and
+ * a pipe, device or standard input is read up to 1 GiB, past which it is
+ * an error. A UTF-8 byte order mark is accepted before every text format.
+ * A file cut short says "truncated at byte N: expected M ..., got K".
+ * Data after the points a header declares is an error where nothing else
+ * may follow (PLY with vertex the last element, PCD ascii/binary, XYZ
+ * with a count line). PLY: a second x/y/z property or a second vertex
+ * element is an error. XYZ lines written with decimal commas ("1,5 2,5
+ * 3,5", "1,5;2,5;3,5") are refused rather than misread.
  *
  * NaN and Inf coordinates are NOT rejected: they are returned as read
  * (organized PCD clouds mark missing points with NaN). The library decides
