@@ -44,17 +44,15 @@ static double dist2(const double *a, const double *b)
 }
 
 /* Mean and covariance eigen-decomposition of the points within sqrt(lim2)
- * of c (all points for lim2 = INFINITY); returns how many those are. */
+ * of c, or of all n points when c is NULL; returns how many those are. */
 static size_t covariance_within(const double *xyz, size_t n, const double *c,
                                 double lim2, double *mean, double *w, double *V)
 {
-    static const double origin[3] = {0, 0, 0};
-    if (!c)
-        c = origin;
+#define PKSS_IN_BALL(i) (!c || dist2(xyz + 3 * (i), c) <= lim2)
     double m[3] = {0, 0, 0};
     size_t k = 0;
     for (size_t i = 0; i < n; ++i)
-        if (dist2(xyz + 3 * i, c) <= lim2) {
+        if (PKSS_IN_BALL(i)) {
             for (int d = 0; d < 3; ++d)
                 m[d] += xyz[3 * i + d];
             ++k;
@@ -63,13 +61,14 @@ static size_t covariance_within(const double *xyz, size_t n, const double *c,
         m[d] /= (double)k;
     double C[9] = {0};
     for (size_t i = 0; i < n; ++i) {
-        if (!(dist2(xyz + 3 * i, c) <= lim2))
+        if (!PKSS_IN_BALL(i))
             continue;
         double x = xyz[3 * i] - m[0], y = xyz[3 * i + 1] - m[1],
                z = xyz[3 * i + 2] - m[2];
         C[0] += x * x; C[1] += x * y; C[2] += x * z;
         C[4] += y * y; C[5] += y * z; C[8] += z * z;
     }
+#undef PKSS_IN_BALL
     C[3] = C[1]; C[6] = C[2]; C[7] = C[5];
     for (int i = 0; i < 9; ++i)
         C[i] /= (double)k;
@@ -83,7 +82,7 @@ static size_t covariance_within(const double *xyz, size_t n, const double *c,
 static void covariance(const double *xyz, size_t n, double *mean, double *w,
                        double *V)
 {
-    covariance_within(xyz, n, NULL, INFINITY, mean, w, V);
+    covariance_within(xyz, n, NULL, 0.0, mean, w, V);
 }
 
 static int cmp_dbl(const void *a, const void *b)
@@ -147,11 +146,10 @@ static pkss_status check_shape(pkss_context *ctx, const double *xyz, size_t n,
 static pkss_status check_core_shape(pkss_context *ctx, const double *xyz,
                                     size_t n, const char *which)
 {
-    double c[3], r, w[3], V[9];
-    double lim2 = INFINITY;
-    if (median_core(xyz, n, c, &r) && r > 0)
-        lim2 = (PKSS_CORE_RADII * r) * (PKSS_CORE_RADII * r);
-    size_t k = covariance_within(xyz, n, c, lim2, NULL, w, V);
+    double c[3], r = 0.0, w[3], V[9];
+    int core = median_core(xyz, n, c, &r) && r > 0;
+    double lim2 = (PKSS_CORE_RADII * r) * (PKSS_CORE_RADII * r);
+    size_t k = covariance_within(xyz, n, core ? c : NULL, lim2, NULL, w, V);
     char stage[96] = "";
     if (k < n)
         snprintf(stage, sizeof stage, " (of %zu, %zu far points left out)", n, n - k);

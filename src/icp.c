@@ -1,35 +1,29 @@
 /* SPDX-License-Identifier: MIT
  * icp.c -- the overlap-aware similarity ICP of SPEC 6, on the resampled
  * pre-shape clouds:
- *   - h = median NN spacing of the template; a distance gate starts at 20h
- *     and shrinks by 0.85 per iteration to a floor of 3h;
+ *   - h = median NN spacing of the template; a distance gate starts at the
+ *     schedule's gate_start h and shrinks by ICP_GATE_DECAY per iteration to
+ *     a floor of ICP_GATE_FLOOR h;
  *   - rigid first: pairs gated in both directions update R, t (scale
  *     frozen) -- a free scale collapses on partial overlap;
  *   - scale last: only mutual NN pairs, full Umeyama update with scale; the
- *     gate reopens to 8h when the scale is freed and holds there while the
- *     scale still moves (SPEC 6 caveat: by then the gate sits at 3h and a
- *     20 % wrong initial scale of a partial source cannot recover; measured
- *     on objects with 30-50 % cut away, strict success 16/32 -> 25/32, and
- *     on real partial scan pairs 19/26 -> 21/26);
+ *     gate reopens to ICP_GATE_SCALE_START h and holds while the scale still
+ *     moves, or a partial source's wrong initial scale cannot recover (SPEC 6
+ *     caveat; docs/tuning.md);
  *   - stop when the pose no longer moves and the gate is at its floor, or
- *     every pair lies inside the floor already (the floor would keep them);
- *   - then (deviation from SPEC 6) a few point-to-plane steps of the
- *     similarity on the mutual pairs within the floor (plane_stage): on
- *     flat faces point-to-point pairs leave the scale and the sliding of a
- *     part loose.
- * The overlap score (coverage, see overlap_with) judges the runs against
- * each other while they run; the same score within 1 spacing, the fit,
- * picks the winner among the refined candidates (register.c). Where one cloud shows only a part of the other's
- * surface, or neither covers the other, register.c first searches the
- * scale that maximises it (pkss__icp_scale_search, on the coarse views,
- * then on all points): the mutual-pair scale update is nearly stationary
- * there, since the overhang of a too-large partial source has no mutual
- * partners and does not pull it back.
- *
- * A view is a prefix of a cloud's FPS-ordered points: register.c runs a
- * coarse rigid level on every candidate and the full schedule on the few
- * best (farthest-point prefixes are themselves uniform samples).
- */
+ *     every pair lies inside the floor already;
+ *   - then (deviation from SPEC 6) a few point-to-plane steps on the mutual
+ *     pairs within the floor (plane_stage): on flat faces point-to-point
+ *     pairs leave the scale and the sliding of a part loose.
+ * The overlap score (overlap_with) judges the runs against each other while
+ * they run; the same score within 1 spacing, the fit, picks the winner
+ * (register.c). Where one cloud shows a part of the other, register.c first
+ * searches the scale that maximises it (pkss__icp_scale_search): the
+ * mutual-pair scale update barely moves there, since a too-large part's
+ * overhang has no mutual partners.
+ * A view is a prefix of a cloud's FPS-ordered points (a uniform sample):
+ * register.c runs a coarse rigid level on every candidate and the full
+ * schedule on the few best. */
 #include "pkss_internal.h"
 
 #include <math.h>
@@ -43,13 +37,10 @@
 #define ICP_GATE_FLOOR 3.0
 #define ICP_MIN_PAIRS 10
 #define ICP_OVERLAP_DIST 2.0
-/* The fit: the coverage overlap within 1 spacing instead of 2, at a
- * refined pose (register.c picks the winner by it). A symmetric pose of a
- * box part (turned 180 degrees, slid along the box) can cover as much of
- * the template within 2 spacings as the truth, or more (milk carton with
- * 35-38 % cut away: 0.850 vs 0.847, 0.845 vs 0.833), but lies on it less
- * closely once both are polished (within 1 spacing: 0.685 vs 0.756,
- * 0.659 vs 0.739). */
+/* The fit: the coverage overlap within 1 spacing instead of 2, at a refined
+ * pose (register.c picks the winner by it): a box part turned 180 degrees can
+ * cover as much within 2 spacings as the truth, but lies on it less closely
+ * (docs/tuning.md). */
 #define ICP_FIT_DIST 1.0
 #define ICP_SAME_BASIN_RAD (3.0 * PKSS_PI / 180.0)
 /* Iterations over which a stage's overlap gain is measured, to project
@@ -237,13 +228,9 @@ static int solve(const pkss__icp_view *src, const pkss__icp_view *tgt,
  * p' = c + (1 + sg)(I + [w]x)(p - c) + tau, p = T x_i, c = mean p, to first
  * order in (sg, w, tau), and applies it to T. Returns the step's largest
  * component, or -1 if there are too few pairs or they fix no pose.
- * The scale's lever is taken at the template point, n . (y - c), not at
- * p: the source's noise along the normals is in both n . (p - c) and the
- * residual, and least squares then shrinks the source by ~ var(noise) /
- * var(lever) (regression dilution): a milk carton with Gaussian noise
- * r = 0.6 along its normals ended 3.0 % small, 0.4 % with the template's
- * lever. The rotation's levers, (p - c) x n, see only the tangential part
- * of p - c, which that noise leaves alone. */
+ * The scale's lever is taken at the template point, n . (y - c): at p, the
+ * source's noise along the normals would shrink it (regression dilution;
+ * docs/tuning.md). The rotation's levers see only the tangential part. */
 static double solve_plane(const pkss__icp_view *src, const pkss__icp_view *tgt,
                           const uint32_t *pi, const uint32_t *pj, size_t n,
                           pkss__pose *T)
@@ -433,17 +420,12 @@ static void coverage_from_pairs(const pkss__icp_view *src,
 
 /* Coverage overlap: f_s = share of source points with a template point
  * within d, f_t = share of template points with a source point within d,
- * overlap = sqrt(f_s f_t), d = 2 x the coarser of the two spacings (in
- * template units). Both clouds are uniform samples of their surfaces, so
- * f_s = |A_o| / |A_s| and f_t = |A_o| / |A_t| (A_o = overlap area) and the
- * score is |A_o| / sqrt(|A_s| |A_t|): it falls when the source shrinks
- * (|A_o| shrinks with it) and when it grows past the template's rims (the
- * overhang is uncovered). Deviation from SPEC 6 (mutual pairs / min(n_s,
- * n_t)): that count is |A_o| / max(|A_s|, |A_t|) times the sparser
- * density and keeps rising while a partial source is blown up, as long as
- * it stays smaller than the template -- it chose 16-25 % too large scales
- * on objects with 30-50 % cut away. RMS is that of the mutual pairs.
- * fit (if not NULL) is the same score within ICP_FIT_DIST spacings. */
+ * overlap = sqrt(f_s f_t), d = 2 x the coarser of the two spacings (template
+ * units). For uniform samples it is |A_o| / sqrt(|A_s| |A_t|): it falls when
+ * the source shrinks and when it overhangs the template. Deviation from
+ * SPEC 6 (mutual pairs / min(n_s, n_t)), which keeps rising while a partial
+ * source is blown up (docs/tuning.md). RMS is that of the mutual pairs; fit
+ * (if not NULL) is the same score within ICP_FIT_DIST spacings. */
 static void overlap_with(const pkss__icp_view *src, const pkss__icp_view *tgt,
                          const pkss__pose *T, icp_work *w, double *overlap,
                          double *rms, double *cover, double *fit)
@@ -483,20 +465,14 @@ static double overlap_from_pairs(const pkss__icp_view *src,
 }
 
 /* The point-to-plane stage after the scale stage: mutual pairs within the
- * gate's floor, each step a Gauss-Newton step of the similarity against
- * the template's local planes (solve_plane), until it settles or after
- * iters steps. Returns the steps taken. *overlap_start receives the
- * overlap score at the pose it starts from, read from its first
- * correspondences where the floor gate covers the coverage distance (a
- * source not much sparser than the template), else scored apart.
+ * gate's floor, each step a Gauss-Newton step of the similarity against the
+ * template's local planes (solve_plane), until it settles or after iters
+ * steps. Returns the steps taken. *overlap_start receives the overlap score
+ * at the pose it starts from, read from its first correspondences where the
+ * floor gate covers the coverage distance, else scored apart.
  * Point-to-point pairs on flat faces fix the pose only through the faces'
- * rims: a part of a box (milk carton, 30-50 % cut away) ended with its
- * rotation right but its scale 3-10 % and its translation along the box
- * 2-12 % of the diameter off, in a valley where the overlap score is flat
- * (the truth scored 0.875, a pose 2 % smaller and 5 % along the box
- * 0.878). Against the faces' planes every pair on them constrains the
- * scale and the sliding: from those poses it reached the truth (scale
- * within 0.2 %). */
+ * rims, in a valley where the overlap is flat; against the planes every pair
+ * on them constrains the scale and the sliding (docs/tuning.md). */
 static int plane_stage(const pkss__icp_view *src, const pkss__icp_view *tgt,
                        int iters, icp_work *w, pkss__pose *T,
                        double *overlap_start)
@@ -541,11 +517,9 @@ pkss_status pkss__icp_overlap(const pkss__icp_view *src,
 }
 
 /* Another run's minimum (not run id's own): within 3 degrees, 1 template
- * spacing and 1 % scale. Distinct minima of the shapes we measured lie
- * >= 15 degrees apart, while two runs into the same minimum can creep
- * toward it 1-1.5 degrees apart for 20+ iterations when the samplings
- * differ (bunny with 5 % outliers: a 1-degree test let the second run go
- * on for 47 iterations; at 3 degrees it stops after 8). */
+ * spacing and 1 % scale. Distinct minima lie >= 15 degrees apart, while two
+ * runs into the same minimum can creep toward it 1-1.5 degrees apart when
+ * the samplings differ (docs/tuning.md). */
 static int known_basin(const pkss__icp_basins *b, const pkss__pose *T,
                        double h, int id)
 {
@@ -646,24 +620,11 @@ pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
         int track = bar > 0.0 || (sched->free_scale && !scale_stage);
         int stagnant = 0;
         if (track && (scale_stage || gate_used <= floor_gate)) {
-            /* A run heading for the bar gains overlap steadily; one caught
-             * in a wrong minimum creeps (dragon, wrong candidates: 0.40 ->
-             * 0.41 over 25 iterations against a bar of 0.6). Projecting the
-             * gain of the last ICP_GAIN_WINDOW iterations linearly over the
-             * stage's iterations left over-estimates a decelerating run,
-             * so a run that cannot reach the bar even so is stopped now
-             * instead of at the end of the stage.
-             * Not while the free scale still moves (scale_moving, which
-             * holds the gate open): a part's scale stage can stall in
-             * overlap for 5-20 iterations while the scale moves on, and
-             * then climb (chef, 30-50 % cut away, with noise and outliers:
-             * 0.620-0.624 over iterations 65-83 while the scale went
-             * 0.959 -> 0.886, then 0.704 by iteration 125 against a bar
-             * of 0.67, and the truth; stopped at iteration 67, the part
-             * lost to a pose 179.5 degrees off). Development
-             * seeds (base 7 and 11, 15 per object, 30-50 % missing and
-             * combined): strict 403 -> 408/420 (4 chef parts, 1 milk
-             * carton; none lost); real pairs 51/54 unchanged. */
+            /* A run heading for the bar gains overlap steadily; one caught in a wrong
+             * minimum creeps. The linear projection of the last ICP_GAIN_WINDOW
+             * iterations' gain over-estimates a decelerating run, so one that cannot
+             * reach the bar even so stops now. Not while the free scale still moves: a
+             * part's scale stage can stall in overlap, then climb (docs/tuning.md). */
             double ov = overlap_from_pairs(src, tgt, &prev, gate_used, &w);
             if (ov < 0.0) {
                 n_ring = 0;
@@ -692,17 +653,10 @@ pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
                 break;
             }
         }
-        /* A rigid stage ends once its overlap has settled, without waiting
-         * for the pose to stop: with unequal samplings of the two clouds
-         * (noise, outliers, resampling) point-to-point ICP slides on by
-         * ~1e-3 of the shape's size per iteration for 20+ iterations
-         * while no pair changes side of the coverage distance. The scale
-         * stage that follows moves the pose as well. Development seeds,
-         * with the 3-degree basin test (known_basin): strict results
-         * unchanged on missing parts, combined, noise, outliers and real
-         * pairs; median time -13 % with 5 % outliers, -15 % with noise
-         * r = 0.4 (nearest-neighbour queries: -12 % with outliers, -6 %
-         * with missing parts). */
+        /* A rigid stage ends once its overlap has settled, without waiting for the
+         * pose to stop: with unequal samplings point-to-point ICP slides on slowly
+         * while no pair changes side of the coverage distance, and the scale stage
+         * moves the pose anyway (docs/tuning.md). */
         int rigid_settled = stagnant && !scale_stage && sched->free_scale;
         if (at_floor && (change < 1e-6 || rigid_settled)) {
             if (scale_stage || !sched->free_scale) {
@@ -837,20 +791,14 @@ out:
  * box parts: 8-14 % of the diameter, ~13 % of the carton's length). */
 #define SLIDE_RANGE 0.2
 
-/* The slide search (register.c runs it on the winner where it is a part):
- * where the template's surface under the source is a prism (the faces of
- * a box, a cylinder), the translation along it is held only by the part's
- * rims and end features, and the runs end in local minima along it. A
- * milk carton with 43 % cut away, noise, outliers and density bands: all
- * five refined candidates near the truth ended 8-14 % of the diameter
- * along the box (the winner: fit 0.665, scale 2 % off), and the
- * point-to-plane polish from there stays there, while the truth's fit is
- * 0.718. The fit along that direction, in steps of one
- * spacing, has a narrow peak at the truth (0.690 unpolished): the search
- * scores every shift (unpolished, one correspondence pass each) and
- * polishes the best. The direction is the eigenvector of sum(n n^T) over
- * the template normals of the mutual pairs with the smallest eigenvalue
- * (2.6 % of the largest on that carton). */
+/* The slide search (register.c runs it on a winner that does not cover both
+ * clouds): on a prism-like template surface (box faces, a cylinder) the
+ * translation along it is held only by the part's rims and end features,
+ * and the runs end in local minima along it, while the fit along that
+ * direction peaks narrowly at the truth. The search scores every shift of
+ * one spacing (unpolished) and polishes the best. The direction is the
+ * eigenvector of sum(n n^T) over the mutual pairs' template normals with the
+ * smallest eigenvalue (docs/tuning.md). */
 
 pkss_status pkss__icp_slide_search(const pkss__icp_view *src,
                                    const pkss__icp_view *tgt, double min_gain,

@@ -305,28 +305,14 @@ pkss_status pkss__search_setup_build(const pkss__params *p,
                                      pkss__search_setup *s);
 void pkss__search_setup_free(pkss__search_setup *s);
 /* Share of the matched pairs the wide search's measure keeps (trimmed G,
- * pkss_shared.h). Development seeds (30-50 % missing, combined, real
- * pairs), against 0.8: 0.7 lost 1 pair (the kitchen scan pair once), 0.9
- * lost 6 (the kitchen pair x3, dragon, parasaurolophus and chef parts). */
+ * pkss_shared.h; docs/tuning.md). */
 #define PKSS_WIDE_KEEP 0.8f
-/* The wide search's second coverage guard: the matched cells must reach
- * this share of the source's occupied cells, not only 20 % of the
- * template's (SPEC 4.4; a deviation). On the wide grid, pairings whose two
- * occupied cell sets overlap in 5-6 cells passed the template's guard, and
- * 5 pairs fit almost any 5 under a free rotation: they held the wide
- * search's top places (parasaurolophus, 47 % cut away: trimmed G 0.056
- * with 5 matched cells of the source's 27 and the template's 23, against
- * 0.44 near the truth, where 19 of the source's 24 match; the true
- * rotation ranked 232nd of 744). The source is binned about its own
- * centroid, where the truth's offset puts the template's centre, so at
- * the truth most of its cells match. Development seeds (30-50 % missing
- * and combined, 420 pairs): 396 -> 403 at 0.4 (6 parasaurolophus and 2
- * airplane parts fixed, 1 parasaurolophus part lost); 407 at 0.5, which
- * lost the 3DMatch kitchen pair twice (real pairs 51 -> 49/54: the
- * candidates around it changed; its truth matched 82 % of the source's
- * cells). Real pairs and complete objects unchanged at 0.4; 72 parts cut
- * around extreme points 68 -> 67 (2 parasaurolophus parts lost, 1 gained;
- * tests/test_e2e_registration.c). */
+/* The wide search's second coverage guard (SPEC 4.4; a deviation): the
+ * matched cells must reach this share of the source's occupied cells, not
+ * only 20 % of the template's: on the wide grid, pairings of 5-6 cells, which
+ * a free rotation fits almost perfectly, held the top places. The source is
+ * binned about its own centroid, so at the truth most of its cells match
+ * (docs/tuning.md). */
 #define PKSS_WIDE_SRC_COVER 0.4f
 /* Replaces the offsets by the wide grid: the same N^3 offsets at twice the
  * step, reaching +-E/2 along each axis, and the measure by the trimmed G

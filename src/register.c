@@ -17,43 +17,20 @@
 /* Candidates refined at full resolution (by coarse overlap). */
 #define PKSS_FULL_REFINE 3
 #define PKSS_FULL_REFINE_RATIO 0.6
-/* Fits (pick_winner) closer than this (~10 of 3000 points) do not tell
- * two refined poses apart: the chef, a nearly round figure, has a second
- * ICP minimum turned 6 degrees about its axis whose coverage ties with the
- * truth's (0.7962 vs 0.7954 with 40 % cut away, measured within 2
- * spacings, when the winner was picked by that) while its mutual pairs'
- * RMS is 7 times larger (0.0022 vs 0.00033). Only a shrunken pose could
- * gain from a low RMS, and it would not keep the overlap within this. */
+/* Fits (pick_winner) closer than this (~10 of 3000 points) do not tell two
+ * refined poses apart; the lower RMS breaks the tie (docs/tuning.md). */
 #define PKSS_OVERLAP_TIE 0.003
-/* Coarse overlap at which a candidate covers both clouds: complete objects
- * that match (exact copies, density bands, noise) reach 0.995-1.0 at the
- * coarse level's 2-spacing tolerance, and 0.98-0.99 with 5 % outliers (the
- * ones culling leaves stay uncovered); partial scans stay far below.
- * Development seeds: every result unchanged on all synthetic cases and
- * the 54 real pairs; median time -9 % on exact copies, -23 % with noise
- * r = 0.4 (at 0.995), a further -17 % with 5 % outliers (at 0.98). */
+/* Coarse overlap at which a candidate covers both clouds: matching complete
+ * objects reach 0.98-1.0, partial scans stay far below (docs/tuning.md). */
 #define PKSS_COARSE_COMPLETE 0.98
-/* Coverage asymmetry |f_s - f_t| (icp.c) above which one cloud is taken to
- * show a part of the other's surface, and the scale is searched before the
- * full refinement: the pre-shape scale ratio sigma_t / sigma_s is right
- * when both clouds show the same surface (complete objects, scans of the
- * same part: |f_s - f_t| < 0.02 measured) and 15-30 % off when one shows
- * only a part (SPEC 6 caveat; |f_s - f_t| = 0.2-0.3 on 30-50 % cut away).
- * Skipping the search on the former keeps their time unchanged. */
+/* Coverage asymmetry |f_s - f_t| above which one cloud is taken to show a
+ * part of the other's surface, so that the pre-shape scale ratio is off
+ * (SPEC 6 caveat) and the scale is searched first (docs/tuning.md). */
 #define PKSS_PART_OF_WHOLE 0.05
-/* ... and the part's own coverage at or above which it is taken to lie
- * wholly on the other cloud, so that its one-way pairs drive the scale. A
- * partial scan of another partial scan (bunny chin -> bun000, 47 %
- * overlap: f = 0.6-0.8) stays with mutual pairs.
- * Where neither cloud reaches it, the scale is searched too: a part 20-34 %
- * too large overhangs the whole on all sides and leaves f_s and f_t alike
- * (milk carton, 39 % cut away, noise and outliers: 0.78 and 0.77), so the
- * asymmetry does not show it. Development seeds (base 7 and 11, 15 each,
- * 30-50 % missing and combined, 420 pairs), with part_mode read again
- * after the search and search_scale's fine step: strict 377 -> 385 (11
- * fixed, 3 lost: milk carton and airplane parts whose truth candidate
- * now takes another path); real pairs unchanged (51/54); median time in
- * one A/B run: combined +9 %, missing -5 %, real pairs +-0. */
+/* ... and the part's own coverage at or above which it lies wholly on the
+ * other cloud, so that its one-way pairs drive the scale; where neither cloud
+ * reaches it the scale is searched too, as an overhanging part leaves f_s and
+ * f_t alike (docs/tuning.md). */
 #define PKSS_PART_COVERED 0.9
 
 /* Eq. 7: the local rotation O_r of a kept candidate, from the matched
@@ -300,17 +277,10 @@ static int part_mode(double fs, double ft, int otherwise)
     return otherwise;
 }
 
-/* The scale search before a candidate's full refinement (SPEC 6 caveat:
- * the pre-shape ratio is 15-30 % off where the clouds show different
- * surfaces): 10 % moves on the coarse views, then, where the coverages
- * there show one cloud to be a part of the other, 3 % moves on all
- * points. The coarse views' loose tolerance (2 coarse spacings, ~4 full
- * ones) cannot place the scale to 3 %: it stopped a 46 % cut dragon 8 %
- * short, and the one-way pairs of the scale stage, which move a part by
- * ~0.05 % per iteration, left it 2.8 % short at their 200-iteration cap.
- * Mutual pairs settle the last few % themselves: the fine step on every
- * searched candidate kept 2 more of 420 development parts but cost real
- * scan pairs (no part) +30 % median time. */
+/* The scale search before a candidate's full refinement (SPEC 6 caveat):
+ * 10 % moves on the coarse views, then 3 % moves on all points where the
+ * coverages show a part, since the coarse tolerance cannot place the scale
+ * to 3 % (docs/tuning.md). */
 static pkss_status search_scale(const refine_views *v, pkss__icp_result *io)
 {
     pkss_status st = pkss__icp_scale_search(&v->svc, &v->tvc, 0.10, io);
@@ -323,17 +293,10 @@ static pkss_status search_scale(const refine_views *v, pkss__icp_result *io)
 
 /* One global search (SPEC 5) over ss's rotations x offsets, its best top_k
  * candidates appended to cs, each refined (SPEC 6) unless refine is off.
- * lead_in is the best overlap an earlier search refined, before its
- * point-to-plane polish (0 for the first).
- * A candidate whose rigid stage cannot reach PKSS_FULL_REFINE_RATIO of it
- * stops there, as in the first search, but its scale stage is judged only
- * against this search's own leader: a part that the wide grid places
- * starts its scale stage ~30 % off and gains slowly at first (dragon with
- * every perturbation combined: stopped at 0.387 against the first search's
- * 0.402; it reaches 0.738 and the truth). Development seeds: combined
- * 31 -> 32/35 with this; judging the rigid stage only against this
- * search's leader as well gained nothing and took 2x as long on real scan
- * pairs. */
+ * lead_in is the best overlap an earlier search refined, before its polish
+ * (0 for the first): the rigid stage is judged against it, the scale stage
+ * only against this search's own leader, as a part the wide grid places
+ * starts its scale stage far off (docs/tuning.md). */
 static pkss_status search_pass(pkss_context *ctx, const pkss_cloud *src,
                                const pkss_cloud *tgt,
                                const pkss__search_setup *ss,
@@ -376,33 +339,17 @@ static pkss_status search_pass(pkss_context *ctx, const pkss_cloud *src,
     if (kept == 0)
         goto done;
 
-    /* SPEC 6: refine every kept candidate; the winner has the highest
-     * overlap score (by residual, shrunk-to-nothing poses would win; the
-     * residual only breaks ties, PKSS_OVERLAP_TIE). Every
-     * candidate gets a coarse rigid level on a quarter of the points; the
-     * PKSS_FULL_REFINE best by coarse overlap, and any other whose coarse
-     * overlap reaches the refined leader's, then get the full schedule
-     * (rigid, then free scale) on all points. */
-    /* The search is ~10-20 degrees accurate: at the coarse view's spacing
-     * that displaces the rim by a few h, so a 12h gate suffices; it reaches
-     * its 3h floor after 9 iterations. */
+    /* Every candidate gets a coarse rigid level on a quarter of the points; the
+     * best few by coarse overlap, and any other reaching the refined leader's,
+     * get the full run (rigid, free scale, point-to-plane) on all points; the
+     * winner is picked by fit (pick_winner). */
+    /* The search is ~10-20 degrees accurate: a 12h gate covers the rim's
+     * displacement at the coarse spacing (docs/tuning.md). */
     static const pkss__icp_schedule coarse = {12.0, 14, 14, 0, 0.0, 0.0, 0};
-    /* SPEC 6 allows 60 iterations in all; a partial source's scale converges
-     * linearly from ~20 % off, so the full level may take up to 200. Only
-     * the rim pairs pull the scale of a part of a box (milk carton, 30-50 %
-     * cut away): it moves by ~0.05 % per iteration and was still moving,
-     * 3-7 % short, at a cap of 100 (development seeds, milk: strict 16/30
-     * at 100, 22/30 at 200; median time per partial pair unchanged, since
-     * candidates that cannot win stop early). The rigid stage may take 60
-     * of them: it ends as soon as it has settled (icp.c), but a run still
-     * turning when the scale is freed stays where it is, since the scale
-     * stage's mutual pairs hold a slow rotation back (chef with noise
-     * r = 0.6 stopped 6 degrees off with 30 rigid iterations and reached
-     * 0.03 degrees with 60; development seeds: noise G 0.6 34 -> 35/35,
-     * other results unchanged). The point-to-plane stage that ends the run
-     * settled in 1-8 steps on complete objects and 7-22 on most parts where
-     * we looked; on a box part it can go on creeping by 1e-4-1e-3 per step
-     * (pairs changing sides) after it has arrived: 30 bound it. */
+    /* Beyond SPEC 6's 60 iterations: a part's scale converges slowly from ~20 %
+     * off (200 in all), the rigid stage ends once settled (at most 60), and the
+     * point-to-plane polish is bounded as it can creep on box parts (30)
+     * (docs/tuning.md). */
     static const pkss__icp_schedule full = {6.0, 60, 200, PKSS__SCALE_MUTUAL, 0.0, 0.0, 30};
     pkss__icp_result *ir = cs->ir + base;
     pkss_status *cst = cs->st + base;
@@ -457,11 +404,9 @@ static pkss_status search_pass(pkss_context *ctx, const pkss_cloud *src,
             }
             order[j] = c;
         }
-        /* Full refinement for the best few by coarse overlap, skipping
-         * those far behind the leader: a candidate at less than
-         * PKSS_FULL_REFINE_RATIO of the best coarse overlap has converged
-         * elsewhere and never won in our measurements, while near-ties
-         * (symmetric shapes) are all refined; n_full may grow below. */
+        /* Full refinement for the best few by coarse overlap, skipping those below
+         * PKSS_FULL_REFINE_RATIO of the best (converged elsewhere); n_full may grow
+         * below. */
         size_t n_full = kept < PKSS_FULL_REFINE ? kept : PKSS_FULL_REFINE;
         while (n_full > 1 &&
                ir[order[n_full - 1]].overlap < PKSS_FULL_REFINE_RATIO * ir[order[0]].overlap)
@@ -475,50 +420,25 @@ static pkss_status search_pass(pkss_context *ctx, const pkss_cloud *src,
                                   (uint32_t)kept);
             if (st != PKSS_OK)
                 goto fail;
-            /* Past the top few, a candidate is refined too while its
-             * coarse overlap is at least the refined leader's: it may
-             * still win. Where the leader explains both clouds (complete
-             * objects: overlap ~1) that stops at once; where a partial
-             * source left it low, the true pose was found ranked 4th-6th
-             * by coarse overlap (one-sided scale errors of 9-47 % blur
-             * the coarse ranking). Development seeds: 30-50 % missing
-             * 27 -> 28/35, combined 30 -> 31/35, real 45 -> 48/54 (the
-             * bunny 270 -> 000 scan, 34 % overlap), median time per
-             * pair unchanged. */
+            /* Past the top few, a candidate is refined too while its coarse overlap is
+             * at least the refined leader's: with a partial source the truth can rank
+             * 4th-6th by coarse overlap (docs/tuning.md). */
             if (i == n_full && ir[c].overlap >= lead_overlap)
                 ++n_full;
             int same_basin = 0;
             for (size_t j = 0; j < i && j < n_full && !same_basin; ++j)
                 same_basin = same_pose(&ir[c].pose, &ir[order[j]].pose, v->tvc.spacing);
-            /* A refined candidate of this search that covers both clouds
-             * (overlap >= PKSS_COARSE_COMPLETE) ends the full refinements,
-             * as a complete coarse level ends the coarse ones above:
-             * another pose could raise the overlap by 0.02 at most.
-             * Those runs took 29 % of the complete objects' time (base 7,
-             * 8 per object; chef with noise r = 0.6: two runs of 60 rigid
-             * and 7-30 scale iterations, ending at fit 0.67 against the
-             * leader's 0.90). Development seeds (base 7 and 11, 8 per
-             * object; similarity, density, noise G 0.4/0.6 and U 0.6,
-             * outliers: 672 pairs): strict results unchanged; a later
-             * candidate had won once (noise G 0.6 rabbit, fit 0.951 vs
-             * 0.946: 0.19 vs 0.68 degrees off, strict either way). Parts
-             * and real pairs (138): unchanged, no part's run covers both
-             * clouds. (A complete object that a symmetry maps onto itself
-             * within 2 spacings would need the others' runs; the milk
-             * carton turned over covers 0.79-0.84.) */
+            /* A refined candidate of this search that covers both clouds ends the full
+             * refinements, as a complete coarse level ends the coarse ones: another pose
+             * could raise the overlap by 0.02 at most (docs/tuning.md). */
             refined[c] = i < n_full && !same_basin &&
                          lead_here < PKSS_COARSE_COMPLETE;
             if (refined[c]) {
                 pkss__icp_result scaled = ir[c];
                 pkss__icp_schedule sched = full;
-                /* The coarse views' 2h tolerance is loose and the coarse
-                 * level may stop mid-way (a candidate 36 degrees off there
-                 * reached the truth): a candidate is judged against the
-                 * refined leader on all points during its full rigid stage
-                 * (icp.c: projected overlap at the stage's end), and only
-                 * then pays for the scale stage. There it stops once it is
-                 * projected to end below the leader: it cannot win, and it
-                 * is reported where it stopped. */
+                /* The coarse level may stop mid-way, so a candidate is judged against the
+                 * refined leader on all points during its full rigid stage, and stops in
+                 * its scale stage once projected to end below the leader (icp.c). */
                 sched.rigid_min_overlap = PKSS_FULL_REFINE_RATIO * lead_overlap;
                 sched.scale_min_overlap = lead_here;
                 double fs = ir[c].cover[0], ft = ir[c].cover[1];
@@ -528,14 +448,9 @@ static pkss_status search_pass(pkss_context *ctx, const pkss_cloud *src,
                     st = search_scale(v, &scaled);
                     if (st != PKSS_OK)
                         goto fail;
-                    /* The coverages at the searched scale tell a part from
-                     * a whole better than those at the pre-shape ratio: a
-                     * part 20-30 % too large overhangs the whole and covers
-                     * it (chef, 33 % cut away, noise and outliers: f_s 0.78,
-                     * f_t 0.93 before, which reads as the template being
-                     * the part and drives the scale the wrong way; 0.98
-                     * and 0.69 after). A search that found no part leaves
-                     * the first reading. */
+                    /* The coverages at the searched scale tell a part from a whole better than
+                     * those at the pre-shape ratio, which an overhanging part can invert; a
+                     * search that found no part leaves the first reading. */
                     sched.free_scale = part_mode(scaled.cover[0], scaled.cover[1],
                                                  sched.free_scale);
                 }
@@ -585,17 +500,11 @@ done:
     return st;
 }
 
-/* The winner among the fully refined candidates (by search score, the
- * first, when none is: refine off): the highest fit, the overlap within 1
- * spacing at the polished pose (icp.c, ICP_FIT_DIST), not within 2: a box
- * part turned 180 degrees covers as much within 2 spacings as the truth
- * but lies on the template less closely. Development seeds (base 7 and
- * 11, 15 per object, 30-50 % missing and combined): 394 -> 396/420 (2
- * milk carton parts, none lost); real pairs 51/54 and 175 complete objects
- * (similarity, density, noise 0.6, outliers) unchanged. A same-basin
- * candidate left at its coarse pose is represented by its refined twin.
- * Fits within PKSS_OVERLAP_TIE are a tie, which the lower RMS of the
- * mutual pairs breaks. */
+/* The winner among the fully refined candidates (the first by search score
+ * when none is: refine off): the highest fit, the overlap within 1 spacing
+ * at the polished pose, which tells a box part turned 180 degrees from the
+ * truth where 2 spacings do not; fits within PKSS_OVERLAP_TIE are a tie that
+ * the lower RMS breaks (docs/tuning.md). */
 static int pick_winner(const cand_set *cs)
 {
     int best = -1;
@@ -666,28 +575,11 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
     const size_t n_first = cs->n;
     int best = pick_winner(cs);
     res->n_evaluations = (uint64_t)n_eval;
-    /* Second search, with the offsets reaching twice as far (SPEC 5
-     * deviation), when the winner covers neither cloud. A part of an object
-     * (30-50 % cut away) has its centroid 2.5-4.6 steps of the paper's grid
-     * (E/8) from the whole's along the template's first axis, beyond its
-     * +-2: so had all 11 failures with parts on the development seeds,
-     * and every one scored a higher overlap at the true pose, where the
-     * part is covered (f_s >= 0.98), than at the pose it ended in. A search
-     * on the wide grid alone loses the paper grid's resolution (it broke 8
-     * development pairs, among them the dragon's 96 -> 72 scan), so it only
-     * adds candidates, which must beat the first search's winner on
-     * overlap. Development seeds: 30-50 % missing 28 -> 30/35, combined
-     * 31 -> 32/35, real pairs 48 -> 51/54 (the 3DMatch kitchen pair, 26
-     * degrees off before), nothing lost. A winner that covers one of the
-     * clouds (a placed part, a complete object) ends the search: no
-     * complete object on those seeds ran the second search, while 33 of
-     * the 54 real pairs did (median time +16 %).
-     * The second search scores with the trimmed G (PKSS_WIDE_KEEP,
-     * pkss_shared.h): the paper's G ranked the true rotation of a part
-     * 210th-647th of 744 (parasaurolophus, 40 % cut away), as the cells
-     * that look into the missing part pair the whole's far contour with
-     * the part's cut rim. Development seeds: 30-50 % missing 30 -> 32/35,
-     * combined 32 -> 33/35, real pairs unchanged, nothing lost. */
+    /* Second search on the wide offset grid (twice the step, SPEC 5 deviation)
+     * when the winner covers neither cloud: a part's centroid lies beyond the
+     * paper's grid. It only adds candidates, which must beat the first search's
+     * winner, and scores with the trimmed G (PKSS_WIDE_KEEP), as the cells that
+     * look into the missing part mislead the paper's G (docs/tuning.md). */
     const pkss__icp_result *w = &cs->ir[best];
     size_t room = PKSS_MAX_CANDIDATES - cs->n;
     size_t k2 = (size_t)p->top_k < room ? (size_t)p->top_k : room;
@@ -706,16 +598,9 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
         res->n_evaluations += (uint64_t)n_eval;
         best = pick_winner(cs);
     }
-    /* The winner, where it covers neither cloud wholly (a part, partial
-     * scans), gets a slide search (icp.c): a translation search along the
-     * direction its surface constrains least, kept if it raises the fit by
-     * more than a tie. Complete objects skip it (their time is unchanged).
-     * Development seeds (base 7 and 11, 30-50 % missing and combined, 420
-     * pairs; real pairs 54): strict results unchanged, as no development
-     * pair failed by a slide; it was measured on the benchmark's combined
-     * milk carton (12.6 % of the diameter along the box -> 0.1 %) and on
-     * a constructed case (tests/test_refine.c). The 3DMatch demo pair
-     * (real, 27.5 % along the scene's planes) moved to 18.3 %. */
+    /* A winner that does not cover both clouds gets a slide search (icp.c):
+     * a translation search along the direction its surface constrains least,
+     * kept if it raises the fit by more than a tie (docs/tuning.md). */
     if (p->refine && cs->refined[best] &&
         fmin(cs->ir[best].cover[0], cs->ir[best].cover[1]) < PKSS_PART_COVERED) {
         double t3 = pkss__now();

@@ -108,6 +108,13 @@ static void json_num(FILE *f, double v)
     fputs(buf, f);
 }
 
+/* ', "key": number' : one member after the first of a JSON object. */
+static void json_field(FILE *f, const char *key, double v)
+{
+    fprintf(f, ", \"%s\": ", key);
+    json_num(f, v);
+}
+
 static void json_array(FILE *f, const double *v, int n)
 {
     int i;
@@ -221,20 +228,13 @@ static void json_candidates(FILE *f, const pkss_context *ctx,
         fputs(i ? ",\n    {" : "\n    {", f);
         fprintf(f, "\"index\": %u, \"T_target_source\": ", (unsigned)i);
         json_matrix(f, c.T_target_source, 4, 4);
-        fputs(", \"scale\": ", f);
-        json_num(f, c.scale);
-        fputs(", \"score\": ", f);
-        json_num(f, c.score);
-        fputs(", \"score_contour\": ", f);
-        json_num(f, c.score_contour);
-        fputs(", \"score_feature\": ", f);
-        json_num(f, c.score_feature);
-        fputs(", \"rms\": ", f);
-        json_num(f, c.rms);
-        fputs(", \"overlap\": ", f);
-        json_num(f, c.overlap);
-        fputs(", \"fit\": ", f);
-        json_num(f, c.fit);
+        json_field(f, "scale", c.scale);
+        json_field(f, "score", c.score);
+        json_field(f, "score_contour", c.score_contour);
+        json_field(f, "score_feature", c.score_feature);
+        json_field(f, "rms", c.rms);
+        json_field(f, "overlap", c.overlap);
+        json_field(f, "fit", c.fit);
         fputs(", \"stage\": ", f);
         json_str(f, cli_stage_name(c.stage));
         fprintf(f, ", \"search\": %u, \"rotation_index\": %u, "
@@ -312,18 +312,12 @@ void cli_json(FILE *f, const cli_run *run, const pkss_context *ctx,
     json_counts(f, &r->target_counts);
     fputs(",\n  \"timings\": {\"load\": ", f);
     json_num(f, run->load_seconds);
-    fputs(", \"prepare\": ", f);
-    json_num(f, r->prepare_seconds);
-    fputs(", \"validate\": ", f);
-    json_num(f, r->timings.validate);
-    fputs(", \"preprocess\": ", f);
-    json_num(f, r->timings.preprocess);
-    fputs(", \"search\": ", f);
-    json_num(f, r->timings.search);
-    fputs(", \"refine\": ", f);
-    json_num(f, r->timings.refine);
-    fputs(", \"total\": ", f);
-    json_num(f, r->timings.total);
+    json_field(f, "prepare", r->prepare_seconds);
+    json_field(f, "validate", r->timings.validate);
+    json_field(f, "preprocess", r->timings.preprocess);
+    json_field(f, "search", r->timings.search);
+    json_field(f, "refine", r->timings.refine);
+    json_field(f, "total", r->timings.total);
     fputs("},\n  \"backend\": ", f);
     json_str(f, backend_name(r->backend));
     fputs(",\n  \"device\": ", f);
