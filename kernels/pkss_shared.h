@@ -2,7 +2,7 @@
  * =========================================================================
  * pkss_shared.h -- the one definition of cell binning, the 3x3 SVD and the
  * shape measurement G (SPEC 3 and 4), compiled both as C11 (the reference
- * backend, src/search_ref.c) and as OpenCL C 1.2 (kernels/search.cl, which
+ * backend, src/search/search_ref.c) and as OpenCL C 1.2 (kernels/search.cl, which
  * the OpenCL backend embeds and launches).
  *
  * Everything is float32 with FP contraction off on both sides, so the C

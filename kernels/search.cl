@@ -5,9 +5,9 @@
  * offset, then measure G (the batched 3x3-SVD shape measurement of SPEC 4)
  * for every (rotation, offset) pair. All arithmetic is the one definition
  * in kernels/pkss_shared.h (prepended to this file by the build), so the
- * results are those of the C reference, src/search_ref.c.
+ * results are those of the C reference, src/search/search_ref.c.
  *
- * Launched by src/evaluate_cl.c (pkss__search_cl), in this order:
+ * Launched by src/search/evaluate_cl.c (pkss__search_cl), in this order:
  *   bin_source    one work-item per (binning rotation b, cloud kind):
  *                 kind 0 = contour points, 1 = feature points. Writes one
  *                 rep table float[n_cells][4] per work-item and its

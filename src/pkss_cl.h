@@ -26,7 +26,7 @@ void pkss__cl_stage_seconds(const pkss_context *ctx, double *binning,
 
 /* The cl* calls go through a table filled at run time (no link to
  * libOpenCL; see cl_loader.h). */
-#include "cl_loader.h"
+#include "device/cl_loader.h"
 
 /* Most devices pkss lists (all platforms together). */
 #define PKSS_CL_MAX_DEVICES 64

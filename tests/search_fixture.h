@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT
  * search_fixture.h -- pre-processes two clouds and builds their search
- * input with pkss__search_setup_build, exactly as src/register.c does, so
+ * input with pkss__search_setup_build, exactly as src/refine/register.c does, so
  * that a test or a benchmark can run one search backend in isolation.
  * Header-only (static functions); used by tests/test_cl_search.c and
  * tools/bench_search.c.
@@ -30,7 +30,7 @@ static void search_fixture_free(search_fixture *f)
 
 /* Pre-processes both inputs with ctx's parameters and builds the search
  * input for ctx's search parameters (pkss__search_setup_build, as
- * src/register.c does). Returns PKSS_OK or the failure. */
+ * src/refine/register.c does). Returns PKSS_OK or the failure. */
 static pkss_status search_fixture_build(pkss_context *ctx, const double *src,
                                         size_t ns, const double *tgt, size_t nt,
                                         search_fixture *f)

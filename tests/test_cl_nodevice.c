@@ -7,7 +7,7 @@
  * (and PKSS_BACKEND_REFERENCE) still register on the reference backend.
  * ctest runs it a second time as test_cl_noloader, with
  * PKSS_OPENCL_LIBRARY=/nonexistent: a machine without the ICD loader
- * itself (libpkss dlopen()s it, src/cl_loader.c), where the same holds and
+ * itself (libpkss dlopen()s it, src/device/cl_loader.c), where the same holds and
  * the reason names the loader.
  */
 #define _POSIX_C_SOURCE 200809L

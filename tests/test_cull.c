@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT
  * test_cull.c -- outlier culling (SPEC 2.2 mutual kNN, SPEC 2.3 density-
- * aware statistical filter; src/cull.c), measured on real scans.
+ * aware statistical filter; src/preshape/cull.c), measured on real scans.
  *
  * Requirements (the project issue): run as the pipeline runs them (mutual
  * kNN, compact, statistical filter, compact),
@@ -248,7 +248,7 @@ static void lidar_case(const char *rel)
         pkss__free(y);
         n = m;
     }
-    /* The pipeline drops exact duplicates first (src/dedupe.c): small_gicp's
+    /* The pipeline drops exact duplicates first (src/preshape/dedupe.c): small_gicp's
      * scans carry ~5000 "no return" records at exactly (0,0,0), 7 % of the
      * file, which are not scan points. The requirement is then measured on
      * every remaining point, as the pipeline sees them. */

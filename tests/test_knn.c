@@ -1,5 +1,5 @@
 /* SPDX-License-Identifier: MIT
- * test_knn.c -- the kd-tree of src/knn.c against brute force.
+ * test_knn.c -- the kd-tree of src/common/knn.c against brute force.
  *
  * The tree promises the k nearest by (squared distance, index), ties to the
  * lowest index, so results must equal a brute-force sort exactly (indices

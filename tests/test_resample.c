@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT
- * test_resample.c -- farthest-point sampling (SPEC 2.4, src/resample.c) and
- * voxel thinning (SPEC 2.1, src/thin.c).
+ * test_resample.c -- farthest-point sampling (SPEC 2.4, src/preshape/resample.c) and
+ * voxel thinning (SPEC 2.1, src/preshape/thin.c).
  *
  * FPS: the accelerated sampler returns exactly the index sequence of the
  * textbook O(n m) loop (ties to the lowest index) on random clouds full of
@@ -96,7 +96,7 @@ static double dist2(const double *p, const double *q)
 
 /* --------------------------------------------------- reference FPS */
 
-/* The textbook loop: O(n m), same arithmetic as src/resample.c (centroid
+/* The textbook loop: O(n m), same arithmetic as src/preshape/resample.c (centroid
  * summed in index order; distances as point minus sample), so the index
  * sequence must match exactly. Returns min(m, n). */
 static size_t brute_fps(const double *x, size_t n, size_t m, uint32_t *out)

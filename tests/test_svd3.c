@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: MIT
  * test_svd3.c -- the 3x3 SVD of kernels/pkss_shared.h (float32, shared by
  * the C reference and the OpenCL kernels) and the double SVD of
- * src/geometry.c against LAPACKE_dgesvd on 10^5+ random and near-degenerate
+ * src/common/geometry.c against LAPACKE_dgesvd on 10^5+ random and near-degenerate
  * matrices: repeated, zero, rank-1/2 singular values and reflections;
  * the trimmed measure of the wide search on pairs with outliers; and the
  * other small dense solvers of geometry.c (the SPD solve against

@@ -1,5 +1,5 @@
 /* SPDX-License-Identifier: MIT
- * bench_knn.cpp -- our kd-tree (src/knn.c) against nanoflann on real scans.
+ * bench_knn.cpp -- our kd-tree (src/common/knn.c) against nanoflann on real scans.
  * NOT part of the default build (it is C++ and needs libnanoflann-dev).
  *
  * Build and run (paths for a checkout at /work/main; nanoflann:
@@ -7,7 +7,7 @@
  *
  *   mkdir -p /tmp/bench_knn && cd /tmp/bench_knn &&
  *   cc -std=c11 -O2 -ffp-contract=off -I/work/main/include -I/work/main/src \
- *      -c /work/main/src/knn.c /work/main/src/alloc.c /work/main/src/thin.c &&
+ *      -c /work/main/src/common/knn.c /work/main/src/common/alloc.c /work/main/src/preshape/thin.c &&
  *   cc -std=c11 -O2 -I/work/main/tools/io -c /work/main/tools/io/[a-z]*.c &&
  *   g++ -std=c++17 -O2 -I/work/main/include -I/work/main/src \
  *      -I/work/main/tools/io /work/main/tools/bench_knn.cpp *.o -lm \
@@ -34,7 +34,7 @@
  * 30k and ~4 % slower at 200k: at least as fast overall for the pipeline,
  * which builds one tree per culling step and runs one all-points 12-NN on
  * it. That, plus the exact (distance, index) tie order and the O(k) leaves
- * for stacks of identical points, is why src/knn.c stays our own.
+ * for stacks of identical points, is why src/common/knn.c stays our own.
  */
 #include <nanoflann.hpp>
 

@@ -2,7 +2,7 @@
 # SPDX-License-Identifier: MIT
 # The shared library's link surface (ctest package_exports):
 #   - no NEEDED libOpenCL: the OpenCL ICD loader is dlopen()ed at first use
-#     (src/cl_loader.c), so libpkss loads on a machine without it;
+#     (src/device/cl_loader.c), so libpkss loads on a machine without it;
 #   - only the public API is exported: every dynamic symbol it defines is
 #     pkss_<name>, none is an internal pkss__<name> (e.g. the test hook
 #     pkss__test_set_alloc_budget, reachable from libpkss.a only).
