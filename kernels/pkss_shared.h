@@ -34,6 +34,11 @@
 #ifndef PKSS_SHARED_H
 #define PKSS_SHARED_H
 
+/* The tuning table precedes this file in the embedded OpenCL source. */
+#ifndef PKSS_TUNING_H
+#include "tuning.h"
+#endif
+
 /* OpenCL C: __OPENCL_C_VERSION__ (1.2+) is defined by every compiler, also
  * an offline clang -x cl without an OpenCL target, which does not define
  * __OPENCL_VERSION__. */
@@ -131,15 +136,10 @@ typedef int pkss_vi;
 #define PKSS_EDGE_AZ_BASE (PKSS_MAX_AZ / 2 + 1)
 #define PKSS_EDGES_SIZE (PKSS_EDGE_AZ_BASE + PKSS_MAX_AZ)
 
-/* Coverage guard (SPEC 4.4): fewer matched cells than this, or fewer than
- * PKSS_MIN_COVERAGE of the template's occupied cells, gives G = pi/2; so
- * do fewer than `src_cover` of the source's occupied cells (arguments of
- * pkss_score_lanes: src_cover is 0 in the paper's search and
- * PKSS_WIDE_SRC_COVER of pkss_internal.h in the wide second search; the
- * source table's occupied count comes from its binning, as the
- * template's does). */
-#define PKSS_MIN_MATCHED 4
-#define PKSS_MIN_COVERAGE 0.2f
+/* Coverage guard (SPEC 4.4): PKSS_MIN_MATCHED and PKSS_MIN_COVERAGE of
+ * src/tuning.h; `src_cover` of pkss_score_lanes is 0 in the paper's search
+ * and PKSS_WIDE_SRC_COVER in the wide second search (the source table's
+ * occupied count comes from its binning, as the template's does). */
 
 /* ---------------------------------------------------------------------- */
 /* Cell index (SPEC 3): n_el = n_az/2 elevation bins x n_az azimuth bins,  */
@@ -409,10 +409,7 @@ PKSS_INLINE pkss_vf pkss_measure_from_H(const pkss_vf *H)
 /* best (a trimmed Procrustes fit, one trimming step) lets the shared     */
 /* surface decide.                                                        */
 /* ---------------------------------------------------------------------- */
-/* Bisection steps for the trimming threshold: it ends within 2^-6 of     */
-/* its start, mean residual / (1 - keep), above the keep-quantile of the  */
-/* pair residuals (an eighth of the mean at keep = 0.8).                  */
-#define PKSS_TRIM_STEPS 6
+/* Bisection steps for the trimming threshold: PKSS_TRIM_STEPS (tuning.h). */
 
 /* The rotation R (row-major, y ~ R x) that best fits the pairs of the     */
 /* normalised H = sum x y^T, from its singular values sv and right        */

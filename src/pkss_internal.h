@@ -46,6 +46,27 @@ void pkss__params_default(pkss__params *p);
 struct pkss__device; /* OpenCL state, device.c / evaluate_cl.c */
 
 /* One call's progress and cancellation state (progress.c). */
+/* The one extra thread of a call (helper.c). */
+typedef struct pkss__helper {
+    pthread_mutex_t lock;
+    pthread_cond_t wake, done;
+    pthread_t thread;
+    int started, failed, busy, quit;
+    void (*fn)(void *);
+    void *arg;
+    unsigned long submitted, completed;
+} pkss__helper;
+
+void pkss__helper_init(pkss__helper *h);
+/* Ends the thread (after its job, if any). */
+void pkss__helper_close(pkss__helper *h);
+/* Hands fn(arg) to the helper: a ticket (> 0), or 0 if the helper is busy
+ * or h is NULL, and the caller runs the job itself. */
+unsigned long pkss__helper_offer(pkss__helper *h, void (*fn)(void *), void *arg);
+/* Waits for the ticket's job: until it is done (seconds <= 0), or at most
+ * `seconds`; returns 1 once it is done. */
+int pkss__helper_wait(pkss__helper *h, unsigned long ticket, double seconds);
+
 typedef struct pkss__run {
     pkss_progress_fn fn;
     void *user;
@@ -54,6 +75,7 @@ typedef struct pkss__run {
     int stage;                 /* as last reported, with its step */
     uint32_t step, steps;
     atomic_int cancelled;      /* read by every thread of the call */
+    pkss__helper helper;       /* the call's one extra thread */
 } pkss__run;
 
 struct pkss_context {
@@ -241,6 +263,12 @@ struct pkss_cloud {
 
 pkss_status pkss__cloud_build(pkss_context *ctx, const double *xyz, size_t n,
                               const char *which, pkss_cloud **out);
+/* Both clouds of a registration, the target on the call's helper thread
+ * (preshape/pair.c); the source's error is reported first. */
+pkss_status pkss__cloud_build_pair(pkss_context *ctx, const double *source,
+                                   size_t n_source, const double *target,
+                                   size_t n_target, pkss_cloud **src,
+                                   pkss_cloud **tgt);
 
 /* --------------------------------------------------------------- search */
 /* Rotation candidates (candidates.c): each rotation is a binning rotation
@@ -304,16 +332,6 @@ pkss_status pkss__search_setup_build(const pkss__params *p,
                                      const pkss_cloud *tgt,
                                      pkss__search_setup *s);
 void pkss__search_setup_free(pkss__search_setup *s);
-/* Share of the matched pairs the wide search's measure keeps (trimmed G,
- * pkss_shared.h; docs/tuning.md). */
-#define PKSS_WIDE_KEEP 0.8f
-/* The wide search's second coverage guard (SPEC 4.4; a deviation): the
- * matched cells must reach this share of the source's occupied cells, not
- * only 20 % of the template's: on the wide grid, pairings of 5-6 cells, which
- * a free rotation fits almost perfectly, held the top places. The source is
- * binned about its own centroid, so at the truth most of its cells match
- * (docs/tuning.md). */
-#define PKSS_WIDE_SRC_COVER 0.4f
 /* Replaces the offsets by the wide grid: the same N^3 offsets at twice the
  * step, reaching +-E/2 along each axis, and the measure by the trimmed G
  * (keep = PKSS_WIDE_KEEP): the second search of register.c. */
@@ -338,104 +356,7 @@ size_t pkss__select_top_k(const float *scores, const float *gc,
                           const float *gf, const pkss__rotation_set *rot,
                           size_t n_offsets, size_t top_k, pkss__pick *out);
 
-/* ------------------------------------------------------------- refine */
-typedef struct pkss__pose {
-    double s;        /* scale */
-    double R[9];
-    double t[3];
-} pkss__pose;
-
-/* Points an ICP level works on: a prefix of a cloud's pre-shape points. */
-typedef struct pkss__icp_view {
-    const double *pts;
-    size_t m;
-    const pkss__kdtree *tree;
-    const double *normal; /* unit normal at each point (cloud.c) */
-    double spacing;  /* median NN spacing h of this view */
-    pkss__run *run;  /* the call's cancellation state, or NULL */
-} pkss__icp_view;
-
-void pkss__icp_view_full(const pkss_cloud *c, pkss__icp_view *v);
-void pkss__icp_view_coarse(const pkss_cloud *c, pkss__icp_view *v);
-
-/* Pairs that drive the free scale. Mutual pairs by default; where one cloud
- * shows a part of the other, every point of the part has its partner on
- * the whole, so the part's one-way pairs are all genuine and pull an
- * overhanging part back (register.c decides by coverage). */
-enum pkss__scale_pairs {
-    PKSS__SCALE_MUTUAL = 1,
-    PKSS__SCALE_SOURCE_PART = 2,   /* source -> template pairs */
-    PKSS__SCALE_TEMPLATE_PART = 3  /* template -> source pairs */
-};
-
-typedef struct pkss__icp_schedule {
-    double gate_start;   /* in units of the template view's h */
-    int rigid_iters;     /* iterations with the scale frozen */
-    int max_iters;       /* all iterations */
-    int free_scale;      /* 0: rigid only; else a pkss__scale_pairs */
-    double rigid_min_overlap; /* stop a rigid stage that ends, or is
-                                 projected to end, below this overlap */
-    double scale_min_overlap; /* stop a scale stage projected to end
-                                 below this overlap */
-    int plane_iters;     /* most point-to-plane iterations after the scale
-                            stage (0: none) */
-} pkss__icp_schedule;
-
-typedef struct pkss__icp_result {
-    pkss__pose pose;
-    double rms;      /* of the final mutual pairs, pre-shape template units */
-    double overlap;  /* overlap score on the views used (icp.c) */
-    double cover[2]; /* its parts: shares of source, template covered */
-    double fit;      /* the overlap within 1 spacing (icp.c, ICP_FIT_DIST) */
-    double overlap_unpolished; /* the overlap before the point-to-plane
-                                  stage (= overlap without one): the bar
-                                  that other runs' stages are held to */
-    int iterations;
-    int abandoned;   /* stopped short of a bar (rigid_min_overlap,
-                        scale_min_overlap) */
-    int duplicate_of; /* owner of the known rigid minimum it stopped at, or -1 */
-} pkss__icp_result;
-
-/* Minima already reached by earlier runs (full schedule): the end of each
- * run's rigid stage and its final pose. A run that arrives at one of them
- * stops there, since from the same minimum it would end where that run
- * ended. */
-typedef struct pkss__icp_basins {
-    pkss__pose pose[2 * PKSS_MAX_CANDIDATES];
-    int owner[2 * PKSS_MAX_CANDIDATES]; /* caller's id of the run that found it */
-    int n;
-} pkss__icp_basins;
-
-/* SPEC 6: overlap-aware similarity ICP of the source view onto the template
- * view from init (pre-shape coordinates of both). With basins (may be
- * NULL) and a free scale: stops early with out->duplicate_of = the owner of
- * a known minimum the run reached, else records the run's own rigid
- * minimum and final pose under id. */
-pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
-                          const pkss__icp_schedule *sched,
-                          const pkss__pose *init, pkss__icp_basins *basins,
-                          int id, pkss__icp_result *out);
-/* The scale that maximises the overlap score, by a pattern search in log
- * scale (steps of log_step, at most 4 moves) with a short rigid settle at
- * each trial; io holds the start pose on entry and the best pose found
- * (with its overlap, RMS and coverages) on exit. */
-pkss_status pkss__icp_scale_search(const pkss__icp_view *src,
-                                   const pkss__icp_view *tgt, double log_step,
-                                   pkss__icp_result *io);
-/* A search along the direction in which the template's surface under the
- * source constrains the translation least (a part of a box or a cylinder
- * slides along it): trial shifts of io's pose scored by their fit, the best
- * polished (point-to-plane steps); io receives the polished pose if its fit
- * beats io's by more than min_gain. */
-pkss_status pkss__icp_slide_search(const pkss__icp_view *src,
-                                   const pkss__icp_view *tgt, double min_gain,
-                                   pkss__icp_result *io);
-/* Overlap score (coverage, icp.c), RMS of the mutual pairs and the fit
- * (the overlap within 1 spacing; fit may be NULL) at pose. */
-pkss_status pkss__icp_overlap(const pkss__icp_view *src,
-                              const pkss__icp_view *tgt,
-                              const pkss__pose *pose, double *overlap,
-                              double *rms, double *fit);
+/* refine: src/refine/icp.h (the ICP engine), src/refine/stages.h */
 
 /* ------------------------------------------------------------ OpenCL */
 /* evaluate_cl.c; all return PKSS_ERR_UNSUPPORTED when built without it. */

@@ -5,7 +5,7 @@
  */
 #include "support.h"
 
-#include "pkss_internal.h"
+#include "refine/stages.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -84,7 +84,7 @@ static void part_teardown(part_fixture *f)
  * spacings either way along the carton, the point-to-plane polish that
  * ends a run stays 6-9 spacings off (the faces' planes do not pull along
  * the box, and the part's rims pull both ways), while the slide search
- * (icp.c) finds the truth again. From the truth, the search keeps the
+ * (local_search.c) finds the truth again. From the truth, the search keeps the
  * pose as it is. */
 static void test_slide_search_returns_box_part(void **state)
 {
@@ -93,13 +93,13 @@ static void test_slide_search_returns_box_part(void **state)
     part_setup(&f, MILK, 1, 0.43, 0.5 * 0.00147);
     const double h = f.tgt->spacing;
     /* the polish alone: point-to-plane steps, as at the end of a run */
-    static const pkss__icp_schedule polish = {3.0, 0, 0, 0, 0.0, 0.0, 30};
+    const pkss__icp_schedule *polish = &pkss__schedule_polish;
     for (int way = -1; way <= 1; way += 2) {
         pkss__pose slid = f.truth;
         for (int d = 0; d < 3; ++d) /* the carton's long axis: its first PCA axis */
             slid.t[d] += way * 10.0 * h * f.tgt->axes[3 * d];
         pkss__icp_result polished, searched;
-        assert_int_equal(pkss__icp_run(&f.sv, &f.tv, &polish, &slid, NULL, 0, &polished),
+        assert_int_equal(pkss__icp_run(&f.sv, &f.tv, polish, NULL, &slid, &polished),
                          PKSS_OK);
         searched = polished;
         assert_int_equal(pkss__icp_slide_search(&f.sv, &f.tv, 0.003, &searched), PKSS_OK);
@@ -120,7 +120,7 @@ static void test_slide_search_returns_box_part(void **state)
         assert_true(searched.fit > polished.fit + 0.003);
     }
     pkss__icp_result at_truth;
-    assert_int_equal(pkss__icp_run(&f.sv, &f.tv, &polish, &f.truth, NULL, 0, &at_truth),
+    assert_int_equal(pkss__icp_run(&f.sv, &f.tv, polish, NULL, &f.truth, &at_truth),
                      PKSS_OK);
     pkss__icp_result kept = at_truth;
     assert_int_equal(pkss__icp_slide_search(&f.sv, &f.tv, 0.003, &kept), PKSS_OK);
@@ -147,11 +147,12 @@ static void test_scale_stage_runs_while_scale_moves(void **state)
     double dR[9];
     pkss__rotation_exp(w, dR);
     pkss__mat3_mul(dR, f.truth.R, start.R);
-    /* register.c's full schedule, the scale stage judged against the bar */
+    /* the full schedule, the scale stage judged against the bar */
     const double bar = 0.9 * f.truth_overlap;
-    pkss__icp_schedule full = {6.0, 60, 200, PKSS__SCALE_MUTUAL, 0.0, bar, 30};
+    const pkss__icp_stops stops = {.scale_bar = bar};
     pkss__icp_result r;
-    assert_int_equal(pkss__icp_run(&f.sv, &f.tv, &full, &start, NULL, 0, &r), PKSS_OK);
+    assert_int_equal(pkss__icp_run(&f.sv, &f.tv, &pkss__schedule_full, &stops, &start, &r),
+                     PKSS_OK);
     double scale_err = fabs(r.pose.s / f.truth.s - 1.0);
     double rot_deg = pkss__rotation_angle(r.pose.R, f.truth.R) * 180.0 / 3.14159265358979323846;
     printf("  overlap at the truth %.3f, bar %.3f; from 35 %% small and 10 deg off: "

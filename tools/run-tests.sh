@@ -9,9 +9,11 @@
 #      Rust example (examples/rust, when cargo is on PATH) (tests/package);
 #   3. an AddressSanitizer + UndefinedBehaviorSanitizer build running the
 #      same C tests;
-#   4. the Python package installed with pip into a venv, and its pytest
+#   4. a ThreadSanitizer build running the tests that register through every
+#      threaded path (pre-processing, candidates, correspondences, cancel);
+#   5. the Python package installed with pip into a venv, and its pytest
 #      suite;
-#   5. the benchmark's --quick smoke run.
+#   6. the benchmark's --quick smoke run.
 # Needs the packages of tools/install-deps.sh.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -22,17 +24,17 @@ if [ "${CI:-}" = "true" ]; then WERROR=ON; fi
 export POCL_CACHE_DIR="${POCL_CACHE_DIR:-$ROOT/build/pocl-cache}"
 mkdir -p "$POCL_CACHE_DIR"
 
-echo "== [1/5] release build + ctest"
+echo "== [1/6] release build + ctest"
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DPKSS_WERROR=$WERROR \
       -DPKSS_BUILD_STATIC=ON >/dev/null
 cmake --build build -j"$JOBS"
 ctest --test-dir build --output-on-failure -j"$JOBS"
 
-echo "== [2/5] C package: exports, install, CMake + pkg-config + Rust consumers"
+echo "== [2/6] C package: exports, install, CMake + pkg-config + Rust consumers"
 bash tests/package/check_exports.sh build/src/libpkss.so
 JOBS=$JOBS bash tests/package/run.sh build build/prefix build/package
 
-echo "== [3/5] sanitizer build (ASan + UBSan) + ctest"
+echo "== [3/6] sanitizer build (ASan + UBSan) + ctest"
 cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPKSS_SANITIZE=ON \
       -DPKSS_WERROR=$WERROR >/dev/null
 cmake --build build-asan -j"$JOBS"
@@ -43,13 +45,22 @@ LSAN_OPTIONS=suppressions=$ROOT/tests/lsan.supp:print_suppressions=0 \
 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
   ctest --test-dir build-asan --output-on-failure -j"$JOBS" -LE nosan
 
-echo "== [4/5] Python bindings (pip install) + pytest"
+echo "== [4/6] ThreadSanitizer build + the threaded tests"
+cmake -S . -B build-tsan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPKSS_TSAN=ON \
+      -DPKSS_BUILD_TOOLS=OFF -DPKSS_WERROR=$WERROR >/dev/null
+cmake --build build-tsan -j"$JOBS" --target test_contract test_hostile test_stages
+for t in test_contract test_hostile test_stages; do
+  TSAN_OPTIONS=halt_on_error=1 build-tsan/tests/$t > build-tsan/$t.log ||
+    { cat build-tsan/$t.log; exit 1; }
+done
+
+echo "== [5/6] Python bindings (pip install) + pytest"
 python3 -m venv build/venv
 build/venv/bin/python -m pip install -q --upgrade pip
 build/venv/bin/python -m pip install -q ./bindings/python pytest
 build/venv/bin/python -m pytest bindings/python/tests -q
 
-echo "== [5/5] benchmark smoke run (tools/bench/run.py --quick)"
+echo "== [6/6] benchmark smoke run (tools/bench/run.py --quick)"
 if [ -f tools/bench/run.py ]; then
   build/venv/bin/python -m pip install -q -r tools/bench/requirements-quick.txt
   build/venv/bin/python tools/bench/run.py --quick --out build/bench-quick

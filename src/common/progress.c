@@ -22,11 +22,14 @@ void pkss__run_begin(pkss_context *ctx, pkss__run *run)
     run->t0 = pkss__now();
     run->last_call = -1.0;
     atomic_init(&run->cancelled, 0);
+    pkss__helper_init(&run->helper);
     ctx->run = run;
 }
 
 void pkss__run_end(pkss_context *ctx)
 {
+    if (ctx->run)
+        pkss__helper_close(&ctx->run->helper);
     ctx->run = NULL;
 }
 

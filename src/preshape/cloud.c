@@ -11,19 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define PKSS_KNN_K 12
-/* Validation judges the shape on the points within this many median radii
- * of the median point: a sentinel or a stray point far away must not make
- * an object look collinear (culling removes such points later), while no
- * real object or scan has its median radius 100 times below its extent. */
-#define PKSS_CORE_RADII 100.0
-/* The median point and radius are estimated on at most this many evenly
- * spaced points (exact for smaller clouds). */
-#define PKSS_CORE_SAMPLE 4096
-/* Coordinates below this magnitude would underflow the variance (squares
- * of 1e-154 are denormal), above 1e150 overflow it. */
-#define PKSS_MIN_MAGNITUDE 1e-150
-#define PKSS_MAX_MAGNITUDE 1e150
+/* Constants: src/tuning.h (validation, features). */
 
 void pkss_cloud_destroy(pkss_cloud *cloud)
 {
@@ -125,9 +113,9 @@ static pkss_status shape_verdict(pkss_context *ctx, const double w[3], size_t n,
 {
     PKSS_RETURN_IF(!(w[0] > 0.0), ctx, PKSS_ERR_DEGENERATE,
                    "%s cloud: all %zu points%s are identical", which, n, stage);
-    PKSS_RETURN_IF(w[1] <= 1e-12 * w[0], ctx, PKSS_ERR_DEGENERATE,
+    PKSS_RETURN_IF(w[1] <= PKSS_FLAT_EIGEN * w[0], ctx, PKSS_ERR_DEGENERATE,
                    "%s cloud: the %zu points%s are collinear", which, n, stage);
-    PKSS_RETURN_IF(w[2] <= 1e-12 * w[0], ctx, PKSS_ERR_DEGENERATE,
+    PKSS_RETURN_IF(w[2] <= PKSS_FLAT_EIGEN * w[0], ctx, PKSS_ERR_DEGENERATE,
                    "%s cloud: the %zu points%s are coplanar (no 3-D shape)",
                    which, n, stage);
     return PKSS_OK;
@@ -227,7 +215,7 @@ static pkss_status validate(pkss_context *ctx, const double *xyz, size_t n,
     double w[3], V[9], mean[3];
     covariance(use, finite, mean, w, V);
     double spread = sqrt(w[0] > 0 ? w[0] : 0.0);
-    if (!(spread > 1e-9 * maxabs) && w[0] > 0) {
+    if (!(spread > PKSS_MIN_EXTENT * maxabs) && w[0] > 0) {
         pkss__free(pts);
         return pkss__fail(ctx, PKSS_ERR_DEGENERATE,
                           "%s cloud: extent %g is below the precision of its "
@@ -349,7 +337,7 @@ static pkss_status features_and_spacing(pkss_cloud *c, double frac,
  * (all of them for small clouds), its kd-tree and NN spacing. */
 static pkss_status coarse_level(pkss_cloud *c)
 {
-    c->m_coarse = c->m >= 1200 ? c->m / 4 : c->m;
+    c->m_coarse = c->m >= PKSS_COARSE_MIN_M ? c->m / PKSS_COARSE_DIV : c->m;
     pkss_status st = pkss__kdtree_build(c->pre, c->m_coarse, &c->tree_coarse);
     if (st != PKSS_OK)
         return st;
@@ -402,143 +390,134 @@ static void pca_frame(pkss_cloud *c)
     }
 }
 
-pkss_status pkss__cloud_build(pkss_context *ctx, const double *xyz, size_t n,
-                              const char *which, pkss_cloud **out)
+/* One cloud in the making: the working copy of its points and the
+ * buffers the stages below share. */
+typedef struct prep {
+    pkss_context *ctx;
+    const pkss__params *p;
+    const char *which;
+    pkss_cloud *c;
+    const double *in; /* the caller's points, when validation left them */
+    double *pts;      /* the working copy, else */
+    size_t np;
+    unsigned char *keep;
+    uint32_t *sel;
+} prep;
+
+/* Each stage returns PKSS_OK, PKSS_ERR_OUT_OF_MEMORY (reported by the
+ * driver with the stage's point count) or a failure it has described. */
+typedef pkss_status (*prep_stage)(prep *w);
+
+/* SPEC 2.1: a huge input that validation left where it lies is thinned
+ * from there (one cloud's copy is then ~max_raw_points, not n). Each voxel
+ * keeps one point, so exact duplicates go with the thinning. */
+static pkss_status thin_in_place(prep *w)
 {
-    const pkss__params *p = &ctx->params;
-    *out = NULL;
-    double t0 = pkss__now();
-    pkss_cloud *c = pkss__calloc(1, sizeof *c);
-    PKSS_RETURN_IF(!c, ctx, PKSS_ERR_OUT_OF_MEMORY, "out of memory");
-    c->counts.input = n;
-    const double *in = NULL;
-    double *pts = NULL;
-    size_t np = 0;
-    pkss_status st = validate(ctx, xyz, n, which, &in, &pts, &np, &c->counts.nonfinite);
-    if (st != PKSS_OK) {
-        pkss_cloud_destroy(c);
-        return st;
-    }
-    double t1 = pkss__now();
-    c->validate_seconds = t1 - t0;
-    unsigned char *keep = NULL;
-    uint32_t *sel = NULL;
-    /* progress between the steps below; cancelled: stop at the next one */
-#define STEP(k)                                                                \
-    do {                                                                       \
-        if (pkss__checkpoint(ctx->run, PKSS_PROGRESS_PREPROCESS, (k), 6)) {    \
-            st = pkss__cancel_fail(ctx);                                       \
-            goto fail;                                                         \
-        }                                                                      \
-    } while (0)
-    STEP(0);
-    /* SPEC 2.1: a huge input that validation left where it lies is thinned
-     * from there (one cloud's copy is then ~max_raw_points, not n). Each
-     * voxel keeps one point, so exact duplicates go with the thinning. */
-    if (!pts) {
-        st = pkss__thin_voxel(in, np, (size_t)p->max_raw_points,
-                              (uint64_t)p->seed, &pts, &np);
-        if (st != PKSS_OK)
-            goto oom;
-    }
+    if (w->pts)
+        return PKSS_OK;
+    return pkss__thin_voxel(w->in, w->np, (size_t)w->p->max_raw_points,
+                            (uint64_t)w->p->seed, &w->pts, &w->np);
+}
 
-    /* Exact duplicates carry no shape and defeat the kNN statistics of the
-     * outlier filters (see dedupe.c). */
-    keep = pkss__malloc(np ? np : 1);
-    if (!keep)
-        goto oom;
-    size_t n_unique = np;
-    st = pkss__dedupe(pts, np, keep, &n_unique);
-    if (st != PKSS_OK)
-        goto oom;
-    if (n_unique < np) {
-        c->counts.duplicates = np - n_unique;
-        np = compact(pts, np, keep);
+/* Exact duplicates carry no shape and defeat the kNN statistics of the
+ * outlier filters (dedupe.c). */
+static pkss_status drop_duplicates(prep *w)
+{
+    w->keep = pkss__malloc(w->np ? w->np : 1);
+    if (!w->keep)
+        return PKSS_ERR_OUT_OF_MEMORY;
+    size_t n_unique = w->np;
+    PKSS_FORWARD(pkss__dedupe(w->pts, w->np, w->keep, &n_unique));
+    if (n_unique < w->np) {
+        w->c->counts.duplicates = w->np - n_unique;
+        w->np = compact(w->pts, w->np, w->keep);
     }
-    if (np < (size_t)p->min_points) {
-        st = pkss__fail(ctx, PKSS_ERR_TOO_FEW_POINTS,
-                        "%s cloud has %zu distinct points (%llu exact duplicates "
-                        "dropped); at least %d are needed (min_points)",
-                        which, np, (unsigned long long)c->counts.duplicates,
-                        p->min_points);
-        goto fail;
-    }
+    PKSS_RETURN_IF(w->np < (size_t)w->p->min_points, w->ctx, PKSS_ERR_TOO_FEW_POINTS,
+                   "%s cloud has %zu distinct points (%llu exact duplicates "
+                   "dropped); at least %d are needed (min_points)",
+                   w->which, w->np, (unsigned long long)w->c->counts.duplicates,
+                   w->p->min_points);
+    return PKSS_OK;
+}
 
-    STEP(1);
-    /* SPEC 2.1: a huge input copied by validation (it had non-finite
-     * points to drop) is thinned here, after its duplicates went. */
-    if (np > (size_t)p->max_raw_points) {
+/* SPEC 2.1: a huge input copied by validation (it had non-finite points to
+ * drop) is thinned here, after its duplicates went. */
+static pkss_status thin_copy(prep *w)
+{
+    if (w->np > (size_t)w->p->max_raw_points) {
         double *thin = NULL;
         size_t nt = 0;
-        st = pkss__thin_voxel(pts, np, (size_t)p->max_raw_points,
-                              (uint64_t)p->seed, &thin, &nt);
-        if (st != PKSS_OK)
-            goto oom;
-        pkss__free(pts);
-        pts = thin;
-        np = nt;
+        PKSS_FORWARD(pkss__thin_voxel(w->pts, w->np, (size_t)w->p->max_raw_points,
+                                      (uint64_t)w->p->seed, &thin, &nt));
+        pkss__free(w->pts);
+        w->pts = thin;
+        w->np = nt;
     }
-    c->counts.thinned = np;
+    w->c->counts.thinned = w->np;
+    return PKSS_OK;
+}
 
-    /* SPEC 2.2-2.3: outliers go before resampling (FPS would promote them). */
-    /* Both steps use the 12-NN graph: the statistical filter takes mutual
-     * culling's, carried over to the survivors (only rows that lost a
-     * neighbour are recomputed). */
-    STEP(2);
+/* SPEC 2.2-2.3: outliers go before resampling (FPS would promote them).
+ * Both filters use the PKSS_KNN_K-NN graph: the statistical filter takes
+ * mutual culling's, carried over to the survivors. */
+static pkss_status cull_outliers(prep *w)
+{
+    const pkss__params *p = w->p;
     pkss__knn_graph graph = {0, 0, NULL, NULL};
-    if (p->cull_mutual && np > PKSS_KNN_K + 1) {
-        st = pkss__cull_mutual(pts, np, PKSS_KNN_K, keep, &graph);
-        if (st != PKSS_OK)
-            goto oom;
-        size_t before = np;
-        np = compact(pts, np, keep);
-        if (np != before) {
-            st = pkss__knn_graph_compact(&graph, keep, pts, np);
-            if (st != PKSS_OK)
-                goto oom;
-        }
-    }
-    c->counts.after_mutual = np;
-    if (p->cull_stat && np > PKSS_KNN_K + 1) {
-        st = pkss__cull_stat(pts, np, keep, &graph);
+    pkss_status st = PKSS_OK;
+    if (p->cull_mutual && w->np > PKSS_KNN_K + 1) {
+        st = pkss__cull_mutual(w->pts, w->np, PKSS_KNN_K, w->keep, &graph);
+        size_t before = w->np;
+        if (st == PKSS_OK)
+            w->np = compact(w->pts, w->np, w->keep);
+        if (st == PKSS_OK && w->np != before)
+            st = pkss__knn_graph_compact(&graph, w->keep, w->pts, w->np);
         if (st != PKSS_OK) {
             pkss__knn_graph_free(&graph);
-            goto oom;
+            return st;
         }
-        np = compact(pts, np, keep);
+    }
+    w->c->counts.after_mutual = w->np;
+    if (p->cull_stat && w->np > PKSS_KNN_K + 1) {
+        st = pkss__cull_stat(w->pts, w->np, w->keep, &graph);
+        if (st == PKSS_OK)
+            w->np = compact(w->pts, w->np, w->keep);
     }
     pkss__knn_graph_free(&graph);
-    c->counts.after_stat = np;
-    if (np < (size_t)p->min_points) {
-        st = pkss__fail(ctx, PKSS_ERR_TOO_FEW_POINTS,
-                        "%s cloud: only %zu points survive outlier culling; at "
-                        "least %d are needed (min_points; or disable cull_mutual/cull_stat)",
-                        which, np, p->min_points);
-        goto fail;
-    }
+    PKSS_FORWARD(st);
+    w->c->counts.after_stat = w->np;
+    PKSS_RETURN_IF(w->np < (size_t)p->min_points, w->ctx, PKSS_ERR_TOO_FEW_POINTS,
+                   "%s cloud: only %zu points survive outlier culling; at "
+                   "least %d are needed (min_points; or disable cull_mutual/cull_stat)",
+                   w->which, w->np, p->min_points);
+    return PKSS_OK;
+}
 
-    STEP(3);
-    /* SPEC 2.4: farthest-point resampling to m points. */
-    size_t m = 0;
-    sel = pkss__malloc(((size_t)p->points < np ? (size_t)p->points : np) * sizeof(uint32_t));
-    if (!sel)
-        goto oom;
-    st = pkss__fps(pts, np, (size_t)p->points, sel, &m);
-    if (st != PKSS_OK)
-        goto oom;
+/* SPEC 2.4: farthest-point resampling to m points, shape checked again. */
+static pkss_status resample(prep *w)
+{
+    size_t m = 0, cap = (size_t)w->p->points < w->np ? (size_t)w->p->points : w->np;
+    w->sel = pkss__malloc(cap * sizeof(uint32_t));
+    if (!w->sel)
+        return PKSS_ERR_OUT_OF_MEMORY;
+    PKSS_FORWARD(pkss__fps(w->pts, w->np, (size_t)w->p->points, w->sel, &m));
+    pkss_cloud *c = w->c;
     c->m = m;
     c->pre = pkss__malloc(m * 3 * sizeof(double));
     if (!c->pre)
-        goto oom;
+        return PKSS_ERR_OUT_OF_MEMORY;
     for (size_t i = 0; i < m; ++i)
-        memcpy(c->pre + 3 * i, pts + 3 * (size_t)sel[i], 3 * sizeof(double));
+        memcpy(c->pre + 3 * i, w->pts + 3 * (size_t)w->sel[i], 3 * sizeof(double));
     c->counts.resampled = m;
-    st = check_shape(ctx, c->pre, m, which, " after resampling");
-    if (st != PKSS_OK)
-        goto fail;
+    return check_shape(w->ctx, c->pre, m, w->which, " after resampling");
+}
 
-    /* SPEC 2.5, Eq. 2: centre and divide by the RMS radius
-     * sigma = sqrt(sum |x - mean|^2 / m). */
+/* SPEC 2.5, Eq. 2: centre and divide by the RMS radius
+ * sigma = sqrt(sum |x - mean|^2 / m). */
+static pkss_status map_to_preshape(prep *w)
+{
+    pkss_cloud *c = w->c;
+    const size_t m = c->m;
     double mean[3] = {0, 0, 0}, ss = 0.0;
     for (size_t i = 0; i < m; ++i)
         for (int d = 0; d < 3; ++d)
@@ -555,42 +534,87 @@ pkss_status pkss__cloud_build(pkss_context *ctx, const double *xyz, size_t n,
     for (size_t i = 0; i < m; ++i)
         for (int d = 0; d < 3; ++d)
             c->pre[3 * i + d] = (c->pre[3 * i + d] - mean[d]) / c->sigma;
-
-    STEP(4);
-    st = pkss__kdtree_build(c->pre, m, &c->tree);
-    if (st != PKSS_OK)
-        goto oom;
-    STEP(5);
-    st = features_and_spacing(c, p->feature_frac, ctx->run);
-    if (st == PKSS_ERR_CANCELLED) {
-        st = pkss__cancel_fail(ctx);
-        goto fail;
-    }
-    if (st != PKSS_OK)
-        goto oom;
-    c->counts.features = p->use_features ? c->n_feat : 0;
-    st = coarse_level(c);
-    if (st != PKSS_OK)
-        goto oom;
-    pca_frame(c);
-#undef STEP
-    c->prep_seconds = pkss__now() - t1;
-    pkss__free(pts);
-    pkss__free(keep);
-    pkss__free(sel);
-    *out = c;
     return PKSS_OK;
+}
 
-oom:
-    st = pkss__fail(ctx, PKSS_ERR_OUT_OF_MEMORY,
-                    "out of memory pre-processing the %s cloud (%zu points)",
-                    which, np);
-fail:
-    pkss__free(pts);
-    pkss__free(keep);
-    pkss__free(sel);
-    pkss_cloud_destroy(c);
+static pkss_status build_tree(prep *w)
+{
+    return pkss__kdtree_build(w->c->pre, w->c->m, &w->c->tree);
+}
+
+/* Sec. 4: feature points by D_pca, normals, spacing. */
+static pkss_status features(prep *w)
+{
+    pkss_status st = features_and_spacing(w->c, w->p->feature_frac, w->ctx->run);
+    if (st == PKSS_ERR_CANCELLED)
+        return pkss__cancel_fail(w->ctx);
+    w->c->counts.features = w->p->use_features ? w->c->n_feat : 0;
     return st;
+}
+
+/* The coarse view and the PCA frame (Eq. 11). */
+static pkss_status coarse_and_frame(prep *w)
+{
+    PKSS_FORWARD(coarse_level(w->c));
+    pca_frame(w->c);
+    return PKSS_OK;
+}
+
+/* The stages in order, with the progress step (of 6) each begins after. */
+static const struct {
+    int step;
+    prep_stage run;
+} PREP_STAGES[] = {
+    {0, thin_in_place}, {0, drop_duplicates}, {1, thin_copy},
+    {2, cull_outliers}, {3, resample},        {3, map_to_preshape},
+    {4, build_tree},    {5, features},        {5, coarse_and_frame},
+};
+
+static pkss_status run_stages(prep *w)
+{
+    int step = -1;
+    for (size_t k = 0; k < sizeof PREP_STAGES / sizeof *PREP_STAGES; ++k) {
+        if (PREP_STAGES[k].step != step) {
+            step = PREP_STAGES[k].step;
+            if (pkss__checkpoint(w->ctx->run, PKSS_PROGRESS_PREPROCESS, (uint32_t)step, 6))
+                return pkss__cancel_fail(w->ctx);
+        }
+        pkss_status st = PREP_STAGES[k].run(w);
+        if (st == PKSS_ERR_OUT_OF_MEMORY)
+            return pkss__fail(w->ctx, PKSS_ERR_OUT_OF_MEMORY,
+                              "out of memory pre-processing the %s cloud (%zu points)",
+                              w->which, w->np);
+        if (st != PKSS_OK)
+            return st;
+    }
+    return PKSS_OK;
+}
+
+pkss_status pkss__cloud_build(pkss_context *ctx, const double *xyz, size_t n,
+                              const char *which, pkss_cloud **out)
+{
+    *out = NULL;
+    double t0 = pkss__now();
+    prep w = {ctx, &ctx->params, which, pkss__calloc(1, sizeof(pkss_cloud)),
+              NULL, NULL, 0, NULL, NULL};
+    PKSS_RETURN_IF(!w.c, ctx, PKSS_ERR_OUT_OF_MEMORY, "out of memory");
+    w.c->counts.input = n;
+    pkss_status st = validate(ctx, xyz, n, which, &w.in, &w.pts, &w.np,
+                              &w.c->counts.nonfinite);
+    double t1 = pkss__now();
+    w.c->validate_seconds = t1 - t0;
+    if (st == PKSS_OK)
+        st = run_stages(&w);
+    w.c->prep_seconds = pkss__now() - t1;
+    pkss__free(w.pts);
+    pkss__free(w.keep);
+    pkss__free(w.sel);
+    if (st != PKSS_OK) {
+        pkss_cloud_destroy(w.c);
+        return st;
+    }
+    *out = w.c;
+    return PKSS_OK;
 }
 
 /* ------------------------------------------------------------ public */

@@ -1,0 +1,94 @@
+/* SPDX-License-Identifier: MIT
+ * helper.c -- the one extra thread of a call (pkss.h: "at most one extra
+ * thread"). A job is offered to it; if it is busy (or cannot start) the
+ * offer is refused and the caller runs the job itself, so nested offers
+ * never wait on each other. Which thread runs a job never changes its
+ * result: every job owns its outputs. */
+#define _POSIX_C_SOURCE 200809L /* clock_gettime */
+#include "pkss_internal.h"
+
+#include <string.h>
+#include <time.h>
+
+static void *helper_main(void *arg)
+{
+    pkss__helper *h = arg;
+    pthread_mutex_lock(&h->lock);
+    for (;;) {
+        while (!h->busy && !h->quit)
+            pthread_cond_wait(&h->wake, &h->lock);
+        if (!h->busy)
+            break;
+        void (*fn)(void *) = h->fn;
+        void *job = h->arg;
+        pthread_mutex_unlock(&h->lock);
+        fn(job);
+        pthread_mutex_lock(&h->lock);
+        h->busy = 0;
+        ++h->completed;
+        pthread_cond_broadcast(&h->done);
+    }
+    pthread_mutex_unlock(&h->lock);
+    return NULL;
+}
+
+void pkss__helper_init(pkss__helper *h)
+{
+    memset(h, 0, sizeof *h);
+    pthread_mutex_init(&h->lock, NULL);
+    pthread_cond_init(&h->wake, NULL);
+    pthread_cond_init(&h->done, NULL);
+}
+
+void pkss__helper_close(pkss__helper *h)
+{
+    pthread_mutex_lock(&h->lock);
+    h->quit = 1;
+    pthread_cond_signal(&h->wake);
+    int started = h->started;
+    pthread_mutex_unlock(&h->lock);
+    if (started)
+        pthread_join(h->thread, NULL);
+    pthread_mutex_destroy(&h->lock);
+    pthread_cond_destroy(&h->wake);
+    pthread_cond_destroy(&h->done);
+}
+
+unsigned long pkss__helper_offer(pkss__helper *h, void (*fn)(void *), void *arg)
+{
+    if (!h)
+        return 0;
+    unsigned long ticket = 0;
+    pthread_mutex_lock(&h->lock);
+    if (!h->started && !h->failed) {
+        h->started = pthread_create(&h->thread, NULL, helper_main, h) == 0;
+        h->failed = !h->started;
+    }
+    if (h->started && !h->busy && !h->quit) {
+        h->fn = fn;
+        h->arg = arg;
+        h->busy = 1;
+        ticket = ++h->submitted;
+        pthread_cond_signal(&h->wake);
+    }
+    pthread_mutex_unlock(&h->lock);
+    return ticket;
+}
+
+int pkss__helper_wait(pkss__helper *h, unsigned long ticket, double seconds)
+{
+    pthread_mutex_lock(&h->lock);
+    if (seconds > 0.0 && h->completed < ticket) {
+        struct timespec until;
+        clock_gettime(CLOCK_REALTIME, &until);
+        long ns = until.tv_nsec + (long)(seconds * 1e9);
+        until.tv_sec += ns / 1000000000L;
+        until.tv_nsec = ns % 1000000000L;
+        pthread_cond_timedwait(&h->done, &h->lock, &until);
+    }
+    while (seconds <= 0.0 && h->completed < ticket)
+        pthread_cond_wait(&h->done, &h->lock);
+    int done = h->completed >= ticket;
+    pthread_mutex_unlock(&h->lock);
+    return done;
+}

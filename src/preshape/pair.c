@@ -1,0 +1,76 @@
+/* SPDX-License-Identifier: MIT
+ * pair.c -- pre-processing the two clouds of a registration at once: the
+ * source on the calling thread, the target on the call's helper thread.
+ */
+#include "pkss_internal.h"
+
+#include <string.h>
+
+/* Each job has its own copy of the context for the error detail, so the
+ * two never share a buffer; the copies share the call's run state. */
+typedef struct build_job {
+    pkss_context ctx;
+    const double *xyz;
+    size_t n;
+    const char *which;
+    pkss_cloud *cloud;
+    pkss_status st;
+} build_job;
+
+static void build_worker(void *arg)
+{
+    build_job *j = arg;
+    j->st = pkss__cloud_build(&j->ctx, j->xyz, j->n, j->which, &j->cloud);
+}
+
+/* While the helper builds the target, the caller keeps the progress
+ * callback alive (cancellation stays prompt), waking every
+ * PKSS_WAIT_TICK seconds or as soon as the job is done. */
+static void wait_ticking(pkss_context *ctx, unsigned long ticket)
+{
+    while (!pkss__helper_wait(&ctx->run->helper, ticket, PKSS_WAIT_TICK))
+        pkss__tick(ctx->run);
+}
+
+pkss_status pkss__cloud_build_pair(pkss_context *ctx, const double *source,
+                                   size_t n_source, const double *target,
+                                   size_t n_target, pkss_cloud **src,
+                                   pkss_cloud **tgt)
+{
+    build_job *jobs = pkss__calloc(2, sizeof *jobs);
+    if (!jobs)
+        return pkss__fail(ctx, PKSS_ERR_OUT_OF_MEMORY, "out of memory");
+    const double *xyz[2] = {source, target};
+    const size_t n[2] = {n_source, n_target};
+    const char *which[2] = {"source", "target"};
+    for (int i = 0; i < 2; ++i) {
+        jobs[i].ctx.params = ctx->params;
+        jobs[i].ctx.run = ctx->run;
+        jobs[i].xyz = xyz[i];
+        jobs[i].n = n[i];
+        jobs[i].which = which[i];
+    }
+    pkss__helper *helper = ctx->run ? &ctx->run->helper : NULL;
+    unsigned long ticket = pkss__helper_offer(helper, build_worker, &jobs[1]);
+    build_worker(&jobs[0]);
+    if (ticket)
+        wait_ticking(ctx, ticket);
+    else
+        build_worker(&jobs[1]);
+    /* the source's error first, as in a sequential run */
+    pkss_status st = PKSS_OK;
+    for (int i = 0; i < 2 && st == PKSS_OK; ++i)
+        if (jobs[i].st != PKSS_OK) {
+            st = jobs[i].st;
+            memcpy(ctx->detail, jobs[i].ctx.detail, sizeof ctx->detail);
+        }
+    if (st == PKSS_OK) {
+        *src = jobs[0].cloud;
+        *tgt = jobs[1].cloud;
+    } else {
+        pkss_cloud_destroy(jobs[0].cloud);
+        pkss_cloud_destroy(jobs[1].cloud);
+    }
+    pkss__free(jobs);
+    return st;
+}

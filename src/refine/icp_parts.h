@@ -1,0 +1,74 @@
+/* SPDX-License-Identifier: MIT
+ * icp_parts.h -- the pieces the ICP engine (icp.c) and the local searches
+ * (local_search.c) share: pose arithmetic and the least-squares updates
+ * (solve.c), correspondences, pairs and coverage (correspond.c).
+ */
+#ifndef PKSS_REFINE_ICP_PARTS_H
+#define PKSS_REFINE_ICP_PARTS_H
+
+#include "refine/icp.h"
+
+/* ---- pose arithmetic and updates (solve.c) ---- */
+void pkss__pose_apply(const pkss__pose *T, const double *x, double *y);
+/* x = R^T (y - t) / s: a template point in source pre-shape coordinates */
+void pkss__pose_inverse_apply(const pkss__pose *T, const double *y, double *x);
+/* sum of absolute differences of s, R and t */
+double pkss__pose_change(const pkss__pose *a, const pkss__pose *b);
+double pkss__dist2(const double *a, const double *b);
+/* Least-squares similarity (Umeyama) or rigid (Kabsch, fixed s) update
+ * from pairs (src pi[k], tgt pj[k]). Returns 0 if too few pairs. */
+int pkss__solve_point(const pkss__icp_view *src, const pkss__icp_view *tgt,
+                      const uint32_t *pi, const uint32_t *pj, size_t n,
+                      int with_scale, pkss__pose *T);
+/* One Gauss-Newton step of the point-to-plane similarity fit; returns the
+ * step's largest component, or -1 if the pairs fix no pose. */
+double pkss__solve_plane(const pkss__icp_view *src, const pkss__icp_view *tgt,
+                         const uint32_t *pi, const uint32_t *pj, size_t n,
+                         pkss__pose *T);
+
+/* ---- correspondences (correspond.c) ---- */
+/* Nearest partners both ways and the pair lists built from them. fwd/bwd
+ * hold the previous answers (warm starts) or UINT32_MAX. */
+typedef struct pkss__icp_work {
+    uint32_t *fwd, *bwd, *pi, *pj;
+    double *fwd_d2, *bwd_d2;
+} pkss__icp_work;
+
+int pkss__work_alloc(pkss__icp_work *w, size_t ns, size_t nt);
+void pkss__work_free(pkss__icp_work *w);
+/* Nearest template point of every source point and nearest source point of
+ * every template point, both within gate (template units). */
+void pkss__correspond(const pkss__icp_view *src, const pkss__icp_view *tgt,
+                      const pkss__pose *T, double gate, pkss__icp_work *w);
+/* Pair lists from the last correspond() into w->pi / w->pj: forward and
+ * backward ones appended from n on, mutual ones from 0; each returns the
+ * new count and raises *d2max to the farthest pair (template units). */
+size_t pkss__forward_pairs(pkss__icp_work *w, size_t ns, size_t n, double *d2max);
+size_t pkss__backward_pairs(pkss__icp_work *w, size_t nt, size_t n, double s,
+                            double *d2max);
+size_t pkss__mutual_pairs(pkss__icp_work *w, size_t ns, double *d2max);
+/* The coverage distance: ICP_OVERLAP_DIST x the coarser spacing. */
+double pkss__coverage_gate(const pkss__icp_view *src, const pkss__icp_view *tgt,
+                           const pkss__pose *T);
+/* Shares of each cloud within cg of the other, from the last correspond()
+ * whose gate was at least cg. */
+void pkss__coverage_from_pairs(const pkss__icp_view *src,
+                               const pkss__icp_view *tgt, const pkss__pose *T,
+                               double cg, const pkss__icp_work *w,
+                               double cover[2]);
+/* Overlap score, RMS, coverages (may be NULL) and fit (may be NULL) at T. */
+void pkss__overlap_with(const pkss__icp_view *src, const pkss__icp_view *tgt,
+                        const pkss__pose *T, pkss__icp_work *w,
+                        double *overlap, double *rms, double *cover,
+                        double *fit);
+/* The overlap at the pose of the last correspond() (gate), or -1 when the
+ * gate was narrower than the coverage distance. */
+double pkss__overlap_from_pairs(const pkss__icp_view *src,
+                                const pkss__icp_view *tgt, const pkss__pose *T,
+                                double gate, const pkss__icp_work *w);
+/* The point-to-plane polish (icp.c): returns the steps taken. */
+int pkss__plane_stage(const pkss__icp_view *src, const pkss__icp_view *tgt,
+                      int iters, pkss__icp_work *w, pkss__pose *T,
+                      double *overlap_start);
+
+#endif

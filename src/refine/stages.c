@@ -1,0 +1,309 @@
+/* SPDX-License-Identifier: MIT
+ * stages.c -- the refinement stages of stages.h: which candidates get which
+ * ICP run, against which leader, and which one wins.
+ */
+#include "refine/stages.h"
+#include "pkss_shared.h"
+
+#include <math.h>
+#include <string.h>
+
+/* ---- initial poses and coarse levels ---------------------------------- */
+
+/* Eq. 7: the local rotation O_r of a kept candidate, from the matched
+ * contour representatives in the candidate's frame (host side, double). */
+static void local_rotation(const float *src_pts, int n_src,
+                           const float *tgt_pts, int n_tgt,
+                           const pkss__rotation_set *rot, uint32_t r,
+                           const float *offset, int n_az, const float *edges,
+                           double *O_r)
+{
+    static const float I[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    float src_reps[PKSS_MAX_CELLS * 4], tgt_reps[PKSS_MAX_CELLS * 4];
+    int b = rot->binning[r], shift = rot->shift[r];
+    pkss_bin_points(src_pts, n_src, rot->bin_R + 9 * b, 0, 0, 0, n_az, edges,
+                    src_reps);
+    pkss_bin_points(tgt_pts, n_tgt, I, offset[0], offset[1], offset[2], n_az,
+                    edges, tgt_reps);
+    /* The azimuth shift is a rotation about z by shift * 2pi / n_az. */
+    double ang = shift * 2.0 * PKSS_PI / n_az;
+    double Rz[9] = {cos(ang), -sin(ang), 0, sin(ang), cos(ang), 0, 0, 0, 1};
+    int n_el = n_az / 2, k = 0;
+    double xs[PKSS_MAX_CELLS][3], ys[PKSS_MAX_CELLS][3];
+    double mx[3] = {0, 0, 0}, my[3] = {0, 0, 0};
+    for (int e = 0; e < n_el; ++e)
+        for (int a = 0; a < n_az; ++a) {
+            int ct = n_az * e + a, as = (a - shift + n_az) % n_az;
+            int cs = n_az * e + as;
+            if (!(tgt_reps[4 * ct + 3] > 0 && src_reps[4 * cs + 3] > 0))
+                continue;
+            double x[3] = {src_reps[4 * cs], src_reps[4 * cs + 1], src_reps[4 * cs + 2]};
+            pkss__mat3_apply(Rz, x, xs[k]);
+            for (int d = 0; d < 3; ++d) {
+                ys[k][d] = tgt_reps[4 * ct + d];
+                mx[d] += xs[k][d];
+                my[d] += ys[k][d];
+            }
+            ++k;
+        }
+    pkss__mat3_identity(O_r);
+    if (k < PKSS_MIN_MATCHED)
+        return;
+    double H[9] = {0};
+    for (int i = 0; i < k; ++i)
+        for (int r0 = 0; r0 < 3; ++r0)
+            for (int c0 = 0; c0 < 3; ++c0)
+                H[3 * r0 + c0] += (xs[i][r0] - mx[r0] / k) * (ys[i][c0] - my[c0] / k);
+    pkss__procrustes_rotation(H, O_r);
+}
+
+/* Work on candidates that is independent across them, over the caller and
+ * the call's helper thread (each ICP run owns its buffers). */
+enum { CAND_START = 0, CAND_OVERLAP = 1 };
+
+typedef struct cand_work {
+    pkss__refinement *rs;
+    const pkss__search_setup *ss;
+    const pkss_cloud *src, *tgt;
+    int refine, phase;
+    const int *list; /* candidates to process (absolute indices) */
+    size_t n_list, first, stride;
+} cand_work;
+
+/* CAND_START: the initial pose O_r * O_f * R_pre (Eq. 7-9) and the coarse
+ * level (or, unrefined, the overlap at that pose). CAND_OVERLAP: the
+ * overlap score of the pose in ir[c] on all points. */
+static void cand_one(const cand_work *w, int c)
+{
+    pkss__refinement *rs = w->rs;
+    pkss__icp_result *r = &rs->ir[c];
+    const pkss__views *v = &rs->v;
+    if (w->phase == CAND_OVERLAP) {
+        rs->st[c] = pkss__icp_overlap(&v->sv, &v->tv, &r->pose, &r->overlap,
+                                      &r->rms, &r->fit);
+        r->overlap_unpolished = r->overlap;
+        return;
+    }
+    const pkss__search_setup *ss = w->ss;
+    const pkss__pick *pk = &rs->picks[c];
+    const float *offset = ss->offsets + 3 * (size_t)pk->offset;
+    double O_r[9], RfRpre[9];
+    local_rotation(ss->src_pts, (int)w->src->m, ss->tgt_pts, (int)w->tgt->m,
+                   &ss->rot, pk->rotation, offset, ss->n_az, ss->edges, O_r);
+    pkss__pose init;
+    pkss__mat3_mul(ss->rot.R + 9 * (size_t)pk->rotation, ss->R_pre, RfRpre);
+    pkss__mat3_mul(O_r, RfRpre, init.R);
+    init.s = 1.0; /* pre-shape units: sigma_t / sigma_s in caller units */
+    for (int d = 0; d < 3; ++d)
+        init.t[d] = offset[d];
+    if (w->refine) {
+        rs->st[c] = pkss__icp_run(&v->svc, &v->tvc, &pkss__schedule_coarse, NULL,
+                                  &init, r);
+        rs->stage[c] = PKSS_STAGE_COARSE;
+    } else {
+        r->pose = init;
+        r->iterations = 0;
+        rs->stage[c] = PKSS_STAGE_SEARCH;
+        rs->st[c] = pkss__icp_overlap(&v->sv, &v->tv, &init, &r->overlap,
+                                      &r->rms, &r->fit);
+        r->overlap_unpolished = r->overlap;
+    }
+}
+
+static void cand_worker(void *arg)
+{
+    const cand_work *w = arg;
+    for (size_t k = w->first; k < w->n_list; k += w->stride)
+        cand_one(w, w->list[k]);
+}
+
+/* Odd-numbered entries on the helper thread if it is free, the rest here. */
+static pkss_status for_each_candidate(const cand_work *w)
+{
+    cand_work a = *w, b = *w;
+    a.first = 0;
+    b.first = 1;
+    a.stride = b.stride = 2;
+    pkss__helper *helper = w->rs->v.sv.run ? &w->rs->v.sv.run->helper : NULL;
+    unsigned long ticket = w->n_list > 1 ? pkss__helper_offer(helper, cand_worker, &b) : 0;
+    if (ticket) {
+        cand_worker(&a);
+        pkss__helper_wait(helper, ticket, 0.0);
+    } else {
+        a.stride = 1;
+        cand_worker(&a);
+    }
+    for (size_t k = 0; k < w->n_list; ++k)
+        if (w->rs->st[w->list[k]] != PKSS_OK)
+            return w->rs->st[w->list[k]];
+    return PKSS_OK;
+}
+
+pkss_status pkss__stage_coarse_levels(pkss__refinement *rs,
+                                      const pkss__search_setup *ss,
+                                      const pkss_cloud *src,
+                                      const pkss_cloud *tgt, size_t base,
+                                      size_t kept, int refine, int *scored)
+{
+    int list[PKSS_MAX_CANDIDATES];
+    for (size_t c = 0; c < kept; ++c) {
+        list[c] = (int)(base + c);
+        rs->refined[base + c] = 0;
+        scored[c] = 0;
+    }
+    /* The first wave: the best by search score. If one of them covers both
+     * clouds, no other can beat its overlap by more than 0.02, so the rest
+     * are only scored at the search's pose. */
+    size_t wave = kept < PKSS_FIRST_WAVE ? kept : PKSS_FIRST_WAVE;
+    cand_work cw = {rs, ss, src, tgt, refine, CAND_START, list, wave, 0, 1};
+    pkss_status first = for_each_candidate(&cw);
+    double wave_best = 0.0;
+    for (size_t k = 0; k < wave; ++k)
+        if (rs->st[list[k]] == PKSS_OK && rs->ir[list[k]].overlap > wave_best)
+            wave_best = rs->ir[list[k]].overlap;
+    pkss_status rest = PKSS_OK;
+    if (kept > wave) {
+        cand_work more = cw;
+        more.list = list + wave;
+        more.n_list = kept - wave;
+        if (wave_best >= PKSS_COARSE_COMPLETE) {
+            more.refine = 0;
+            for (size_t k = wave; k < kept; ++k)
+                scored[k] = 1;
+        }
+        rest = for_each_candidate(&more);
+    }
+    return first != PKSS_OK ? first : rest;
+}
+
+/* ---- which candidates get a full run ---------------------------------- */
+
+void pkss__order_by_overlap(const pkss__icp_result *ir, size_t kept, int *order)
+{
+    for (size_t c = 0; c < kept; ++c)
+        order[c] = (int)c;
+    for (size_t i = 1; i < kept; ++i) {
+        int c = order[i];
+        size_t j = i;
+        while (j > 0 && ir[order[j - 1]].overlap < ir[c].overlap) {
+            order[j] = order[j - 1];
+            --j;
+        }
+        order[j] = c;
+    }
+}
+
+size_t pkss__initial_full_count(const pkss__icp_result *ir, const int *order,
+                                size_t kept)
+{
+    size_t n_full = kept < PKSS_FULL_REFINE ? kept : PKSS_FULL_REFINE;
+    while (n_full > 1 &&
+           ir[order[n_full - 1]].overlap < PKSS_FULL_REFINE_RATIO * ir[order[0]].overlap)
+        --n_full;
+    return n_full;
+}
+
+int pkss__wants_full_run(const pkss__refinement *rs, const pkss__icp_result *ir,
+                         const int *order, size_t i, size_t *n_full, double h)
+{
+    int c = order[i];
+    /* with a partial source the truth can rank 4th-6th by coarse overlap */
+    if (i == *n_full && ir[c].overlap >= rs->lead_overlap)
+        ++*n_full;
+    int same_basin = 0;
+    for (size_t j = 0; j < i && j < *n_full && !same_basin; ++j)
+        same_basin = pkss__same_basin(&ir[c].pose, &ir[order[j]].pose, h,
+                                      &pkss__start_basin);
+    /* a refined candidate covering both clouds ends the full runs: another
+     * pose could raise the overlap by 0.02 at most */
+    return i < *n_full && !same_basin && rs->lead_here < PKSS_COARSE_COMPLETE;
+}
+
+/* ---- a full run ------------------------------------------------------- */
+
+int pkss__part_mode(double fs, double ft, int otherwise)
+{
+    if (fs >= PKSS_PART_COVERED && fs - ft > PKSS_PART_OF_WHOLE)
+        return PKSS__SCALE_SOURCE_PART;
+    if (ft >= PKSS_PART_COVERED && ft - fs > PKSS_PART_OF_WHOLE)
+        return PKSS__SCALE_TEMPLATE_PART;
+    return otherwise;
+}
+
+/* The scale pairs of a full run from io's coverages, after a scale search
+ * (SPEC 6 caveat) where they show a part or cover neither cloud wholly:
+ * coarse moves, then fine moves on all points where a part shows. The
+ * coverages at the searched scale supersede those at the pre-shape ratio,
+ * which an overhanging part can invert. */
+static pkss_status plan_scale(const pkss__views *v, pkss__icp_result *io,
+                              int *mode)
+{
+    double fs = io->cover[0], ft = io->cover[1];
+    *mode = pkss__part_mode(fs, ft, pkss__schedule_full.free_scale);
+    if (!(fabs(fs - ft) > PKSS_PART_OF_WHOLE || fmax(fs, ft) < PKSS_PART_COVERED))
+        return PKSS_OK;
+    PKSS_FORWARD(pkss__icp_scale_search(&v->svc, &v->tvc, PKSS_SCALE_STEP_COARSE, io));
+    if (pkss__part_mode(io->cover[0], io->cover[1], 0) != 0)
+        PKSS_FORWARD(pkss__icp_scale_search(&v->sv, &v->tv, PKSS_SCALE_STEP_FINE, io));
+    *mode = pkss__part_mode(io->cover[0], io->cover[1], *mode);
+    return PKSS_OK;
+}
+
+pkss_status pkss__stage_full_run(pkss__refinement *rs, size_t c)
+{
+    pkss__icp_result *r = &rs->ir[c];
+    pkss__icp_result scaled = *r;
+    pkss__icp_schedule sched = pkss__schedule_full;
+    PKSS_FORWARD(plan_scale(&rs->v, &scaled, &sched.free_scale));
+    /* judged against the leader on all points in the rigid stage (the coarse
+     * level may stop mid-way), and in the scale stage against this search's */
+    pkss__icp_stops stops = {PKSS_FULL_REFINE_RATIO * rs->lead_overlap, rs->lead_here,
+                             &rs->basins, (int)c};
+    pkss__pose start = scaled.pose;
+    PKSS_FORWARD(pkss__icp_run(&rs->v.sv, &rs->v.tv, &sched, &stops, &start, r));
+    if (r->duplicate_of >= 0 || r->abandoned) {
+        /* the basin's first run stands for it; reported at this pose */
+        rs->stage[c] = PKSS_STAGE_STOPPED;
+        rs->refined[c] = 0;
+        return PKSS_OK;
+    }
+    rs->stage[c] = PKSS_STAGE_REFINED;
+    /* bars are held before the polish, which raises a box part's overlap by
+     * ~0.01-0.03 and made the others' scale stages stop short of it */
+    rs->lead_overlap = fmax(rs->lead_overlap, r->overlap_unpolished);
+    rs->lead_here = fmax(rs->lead_here, r->overlap_unpolished);
+    return PKSS_OK;
+}
+
+pkss_status pkss__stage_score_rest(pkss__refinement *rs, const int *list,
+                                   size_t n)
+{
+    cand_work cw = {rs, NULL, NULL, NULL, 0, CAND_OVERLAP, list, n, 0, 1};
+    return for_each_candidate(&cw);
+}
+
+/* ---- the winner and the slide search ---------------------------------- */
+
+int pkss__pick_winner(const pkss__refinement *rs)
+{
+    int best = -1;
+    for (size_t c = 0; c < rs->n; ++c)
+        if (rs->refined[c] && (best < 0 || rs->ir[c].fit > rs->ir[best].fit))
+            best = (int)c;
+    if (best < 0)
+        return 0;
+    double top = rs->ir[best].fit;
+    for (size_t c = 0; c < rs->n; ++c)
+        if (rs->refined[c] && rs->ir[c].fit >= top - PKSS_OVERLAP_TIE &&
+            rs->ir[c].rms < rs->ir[best].rms)
+            best = (int)c;
+    return best;
+}
+
+pkss_status pkss__stage_slide(pkss__refinement *rs, int w)
+{
+    const pkss__icp_result *r = &rs->ir[w];
+    if (!rs->refined[w] || !(fmin(r->cover[0], r->cover[1]) < PKSS_PART_COVERED))
+        return PKSS_OK;
+    return pkss__icp_slide_search(&rs->v.sv, &rs->v.tv, PKSS_OVERLAP_TIE, &rs->ir[w]);
+}

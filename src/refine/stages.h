@@ -1,0 +1,72 @@
+/* SPDX-License-Identifier: MIT
+ * stages.h -- the refinement (SPEC 6 and docs/design.md §4) as named stages
+ * over one state. Per search: every candidate's coarse level
+ * (stage_coarse_levels), full runs for the chosen few (wants_full_run,
+ * stage_full_run), the rest scored (stage_score_rest). After the searches:
+ * the winner (pick_winner), then the slide search (stage_slide).
+ */
+#ifndef PKSS_REFINE_STAGES_H
+#define PKSS_REFINE_STAGES_H
+
+#include "refine/icp.h"
+
+/* The full and coarse views of both clouds. */
+typedef struct pkss__views {
+    pkss__icp_view sv, tv, svc, tvc;
+} pkss__views;
+
+/* The refinement state. Candidates of one search or two: the second
+ * search's follow the first's, so one index names a candidate in every
+ * array and in pkss_result.candidates. */
+typedef struct pkss__refinement {
+    pkss__pick picks[PKSS_MAX_CANDIDATES];
+    pkss__icp_result ir[PKSS_MAX_CANDIDATES];
+    pkss_status st[PKSS_MAX_CANDIDATES];
+    int refined[PKSS_MAX_CANDIDATES];    /* fully refined: may win */
+    uint32_t stage[PKSS_MAX_CANDIDATES]; /* pkss_candidate_stage */
+    size_t n;
+    /* the leader: the best overlap fully refined (before its polish), in
+     * any search and in the current one */
+    double lead_overlap, lead_here;
+    pkss__basins basins; /* minima reached by the full runs */
+    pkss__views v;
+    double search_seconds, refine_seconds;
+} pkss__refinement;
+
+/* Initial poses (Eq. 7-9) and coarse levels of candidates [base, base+kept):
+ * reads picks, writes ir/st/stage; scored[c] set for those only scored at
+ * the search's pose (a first wave covered both clouds). */
+pkss_status pkss__stage_coarse_levels(pkss__refinement *rs,
+                                      const pkss__search_setup *ss,
+                                      const pkss_cloud *src,
+                                      const pkss_cloud *tgt, size_t base,
+                                      size_t kept, int refine, int *scored);
+/* The candidates of one search by coarse overlap, best first (stable). */
+void pkss__order_by_overlap(const pkss__icp_result *ir, size_t kept, int *order);
+/* How many of them get a full run to begin with: PKSS_FULL_REFINE, less
+ * those below PKSS_FULL_REFINE_RATIO of the best. */
+size_t pkss__initial_full_count(const pkss__icp_result *ir, const int *order,
+                                size_t kept);
+/* Whether order[i] gets a full run: among the first *n_full (which grows by
+ * one when the candidate at n_full reaches the leader's overlap), not in
+ * the basin of one ranked before it (pkss__start_basin, coarse h), and
+ * while no refined candidate of this search covers both clouds. */
+int pkss__wants_full_run(const pkss__refinement *rs, const pkss__icp_result *ir,
+                         const int *order, size_t i, size_t *n_full, double h);
+/* The scale pairs of a full run from coverages f_s, f_t (otherwise when
+ * neither is a part wholly on the other). */
+int pkss__part_mode(double fs, double ft, int otherwise);
+/* Candidate c's full run (scale search where the coverages show a part,
+ * then rigid, scale and plane stages), judged against the leader; updates
+ * ir[c], stage[c], refined[c] and the leader. */
+pkss_status pkss__stage_full_run(pkss__refinement *rs, size_t c);
+/* Overlap scores on all points, at their poses, of candidates list[0..n). */
+pkss_status pkss__stage_score_rest(pkss__refinement *rs, const int *list,
+                                   size_t n);
+/* The winner: the fully refined candidate with the highest fit, fits within
+ * PKSS_OVERLAP_TIE broken by the lower RMS; candidate 0 when none is. */
+int pkss__pick_winner(const pkss__refinement *rs);
+/* The slide search on winner w when it does not cover both clouds. */
+pkss_status pkss__stage_slide(pkss__refinement *rs, int w);
+
+#endif

@@ -1,0 +1,145 @@
+/* SPDX-License-Identifier: MIT
+ * tuning.h -- every constant the pipeline is tuned by, in pipeline order:
+ * value, unit, and one line on why. The measurements behind each are in
+ * docs/tuning.md (same names). Parameters a user may set are in the table
+ * of src/common/context.c instead; this file holds what is fixed.
+ *
+ * The file is also the first part of the embedded OpenCL source (the
+ * kernels use the search constants), so it holds #defines only.
+ */
+#ifndef PKSS_TUNING_H
+#define PKSS_TUNING_H
+
+/* ---- Validation (preshape/cloud.c) ----------------------------------- */
+/* median radii around the median point within which the shape is judged:
+ * a far sentinel must not make an object look collinear */
+#define PKSS_CORE_RADII 100.0
+/* points sampled (evenly) for the median point and radius */
+#define PKSS_CORE_SAMPLE 4096
+/* coordinate magnitudes whose squares would under/overflow the variance */
+#define PKSS_MIN_MAGNITUDE 1e-150
+#define PKSS_MAX_MAGNITUDE 1e150
+/* relative eigenvalue at or below which the points are collinear/coplanar
+ * (SPEC 1: "the cell partition is undefined") */
+#define PKSS_FLAT_EIGEN 1e-12
+/* extent below this share of the coordinate magnitude: identical points
+ * up to rounding */
+#define PKSS_MIN_EXTENT 1e-9
+
+/* ---- Features (preshape/cloud.c) -------------------------------------- */
+/* k of the PCA neighbourhood (Eq. 3) for D_pca and the normals */
+#define PKSS_KNN_K 12
+/* the coarse view is m/PKSS_COARSE_DIV FPS points from this m on (all of
+ * them below): a quarter keeps the coarse level's rims resolved */
+#define PKSS_COARSE_MIN_M 1200
+#define PKSS_COARSE_DIV 4
+
+/* ---- Search (search/, kernels) ---------------------------------------- */
+/* Coverage guard (SPEC 4.4): fewer matched cells, or a smaller share of
+ * the template's occupied cells, gives G = pi/2 */
+#define PKSS_MIN_MATCHED 4
+#define PKSS_MIN_COVERAGE 0.2f
+/* wide second search: share of the matched pairs the trimmed G keeps (the
+ * cut rim's cells mislead the paper's G) */
+#define PKSS_WIDE_KEEP 0.8f
+/* ... and the share of the source's occupied cells it must match */
+#define PKSS_WIDE_SRC_COVER 0.4f
+/* bisection steps of the trimming threshold (ends within 2^-6) */
+#define PKSS_TRIM_STEPS 6
+
+/* ---- Refinement: which candidates (refine/stages.c) ------------------- */
+/* candidates started together on the coarse level before the rest: if
+ * one covers both clouds the others are only scored */
+#define PKSS_FIRST_WAVE 2
+/* candidates fully refined by coarse overlap ... */
+#define PKSS_FULL_REFINE 3
+/* ... unless below this share of the best coarse overlap */
+#define PKSS_FULL_REFINE_RATIO 0.6
+/* coarse overlap at which a candidate covers both clouds (complete
+ * objects reach 0.98-1.0, partial scans stay far below) */
+#define PKSS_COARSE_COMPLETE 0.98
+/* |f_s - f_t| above which one cloud shows a part of the other, so the
+ * pre-shape scale ratio is off (SPEC 6 caveat) */
+#define PKSS_PART_OF_WHOLE 0.05
+/* coverage from which the part lies wholly on the other cloud */
+#define PKSS_PART_COVERED 0.9
+/* scale search moves (log of the factor): coarse views, then all points,
+ * as the coarse tolerance cannot place the scale to 3 % */
+#define PKSS_SCALE_STEP_COARSE 0.10
+#define PKSS_SCALE_STEP_FINE 0.03
+/* most moves of one scale search */
+#define PKSS_SCALE_MOVES 4
+/* fits closer than this (~10 of 3000 points) are a tie; the lower RMS
+ * breaks it */
+#define PKSS_OVERLAP_TIE 0.003
+/* Same basin before a full run (refine/basin.c): within these, full
+ * refinement would take the second pose where it took the first */
+#define PKSS_START_BASIN_DEG 5.0
+#define PKSS_START_BASIN_SCALE 0.05
+#define PKSS_START_BASIN_H 5.0
+/* Same basin during a run: distinct minima lie >= 15 degrees apart, two
+ * runs into one creep toward it 1-1.5 degrees apart */
+#define PKSS_RUN_BASIN_DEG 3.0
+#define PKSS_RUN_BASIN_SCALE 0.01
+#define PKSS_RUN_BASIN_H 1.0
+/* slide search range, share of the template's extent either way (box
+ * parts slide by 8-14 % of the diameter) */
+#define PKSS_SLIDE_RANGE 0.2
+
+/* ---- Refinement: the ICP engine (refine/icp.c) ------------------------ */
+/* gate decay per iteration and its floor, in h (SPEC 6) */
+#define ICP_GATE_DECAY 0.85
+#define ICP_GATE_FLOOR 3.0
+/* relative slack for "the gate is at its floor" against rounding */
+#define ICP_FLOOR_SLACK 1.000001
+/* gate reopened to this (h) when the scale is freed */
+#define ICP_GATE_SCALE_START 8.0
+/* relative scale change per iteration below which the scale has settled */
+#define ICP_SCALE_SETTLED 1e-4
+/* pose change (pose_change) below which a stage has converged */
+#define ICP_CONVERGED 1e-6
+/* fewer pairs keep the pose (SPEC 6) */
+#define ICP_MIN_PAIRS 10
+/* coverage distance, in spacings (the coarser cloud's) */
+#define ICP_OVERLAP_DIST 2.0
+/* the fit's distance: a box part turned 180 degrees covers as much within
+ * 2 spacings as the truth, but lies on it less closely */
+#define ICP_FIT_DIST 1.0
+/* iterations over which a stage's overlap gain is projected */
+#define ICP_GAIN_WINDOW 5
+/* overlap gain over the window below which a rigid stage has settled
+ * (3 of 3000 points) ... */
+#define ICP_STAGNANT 1e-3
+/* ... while its pose moves less than this per iteration (~1/30 h) */
+#define ICP_SETTLED_MOVE 2e-3
+/* point-to-plane: largest step (rad / relative scale / pre-shape units;
+ * pairs lie within 3h) and the step below which it has settled */
+#define ICP_PLANE_MAX_STEP 0.05
+#define ICP_PLANE_SETTLED 1e-4
+/* relative damping of the point-to-plane normal equations: a free
+ * direction (a plane's sliding) stays where it is */
+#define ICP_PLANE_DAMPING 1e-6
+/* relative slack keeping a warm start's old partner inside its bound */
+#define ICP_WARM_SLACK 1e-9
+
+/* ---- ICP schedules (refine/schedules.c; fields of pkss__icp_schedule) - */
+/* coarse level on every candidate: the search is ~10-20 degrees accurate,
+ * a 12h gate covers the rim's displacement at the coarse spacing */
+#define PKSS_SCHEDULE_COARSE {.gate_start = 12.0, .rigid_iters = 14, .max_iters = 14}
+/* full run: the rigid stage ends once settled (<= 60), a part's scale
+ * converges slowly from ~20 % off (200 in all), the point-to-plane
+ * polish is bounded as it can creep on box parts (30) */
+#define PKSS_SCHEDULE_FULL {.gate_start = 6.0, .rigid_iters = 60, .max_iters = 200, \
+                            .free_scale = PKSS__SCALE_MUTUAL, .plane_iters = 30}
+/* the rigid settle after each trial scale of a scale search: 5h to the floor */
+#define PKSS_SCHEDULE_SETTLE {.gate_start = 5.0, .rigid_iters = 10, .max_iters = 10}
+/* the slide search's polish: point-to-plane steps only, from the shift */
+#define PKSS_SCHEDULE_POLISH {.gate_start = ICP_GATE_FLOOR, .plane_iters = 30}
+
+/* ---- Threads and progress (common/) ----------------------------------- */
+/* queries below which the second thread costs more than it saves */
+#define ICP_THREAD_MIN 1000
+/* seconds between the caller's progress ticks while it waits */
+#define PKSS_WAIT_TICK 0.01
+
+#endif

@@ -1,0 +1,188 @@
+/* SPDX-License-Identifier: MIT
+ * test_stages.c -- the refinement's stage rules (src/refine/stages.c,
+ * basin.c) on synthetic candidate sets: who gets a full run, the winner,
+ * the scale pairs, the same-basin test and the table of minima.
+ */
+#include "support.h"
+
+#include "refine/stages.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+static pkss__pose pose_at(double deg_about_z, double s, double tx)
+{
+    pkss__pose p;
+    double a = deg_about_z * PKSS_PI / 180.0;
+    double R[9] = {cos(a), -sin(a), 0, sin(a), cos(a), 0, 0, 0, 1};
+    memcpy(p.R, R, sizeof R);
+    p.s = s;
+    p.t[0] = tx;
+    p.t[1] = p.t[2] = 0.0;
+    return p;
+}
+
+static void test_same_basin_tolerances(void **state)
+{
+    (void)state;
+    const double h = 0.01;
+    pkss__pose a = pose_at(0.0, 1.0, 0.0);
+    /* during a run: 3 degrees, 1 % scale, 1 h */
+    pkss__pose b = pose_at(2.9, 1.009, 0.99 * h);
+    assert_true(pkss__same_basin(&a, &b, h, &pkss__run_basin));
+    b = pose_at(3.1, 1.0, 0.0);
+    assert_false(pkss__same_basin(&a, &b, h, &pkss__run_basin));
+    b = pose_at(0.0, 1.011, 0.0);
+    assert_false(pkss__same_basin(&a, &b, h, &pkss__run_basin));
+    b = pose_at(0.0, 1.0, 1.01 * h);
+    assert_false(pkss__same_basin(&a, &b, h, &pkss__run_basin));
+    /* before a full run: 5 degrees, 5 % scale, 5 h */
+    b = pose_at(4.9, 1.049, 4.9 * h);
+    assert_true(pkss__same_basin(&a, &b, h, &pkss__start_basin));
+    b = pose_at(5.1, 1.0, 0.0);
+    assert_false(pkss__same_basin(&a, &b, h, &pkss__start_basin));
+    b = pose_at(0.0, 1.0, 5.1 * h);
+    assert_false(pkss__same_basin(&a, &b, h, &pkss__start_basin));
+    /* the test is symmetric in its poses */
+    b = pose_at(4.0, 1.02, 2.0 * h);
+    assert_int_equal(pkss__same_basin(&a, &b, h, &pkss__start_basin),
+                     pkss__same_basin(&b, &a, h, &pkss__start_basin));
+}
+
+static void test_basins_skip_own_and_bound(void **state)
+{
+    (void)state;
+    pkss__basins *b = calloc(1, sizeof *b);
+    assert_non_null(b);
+    const double h = 0.01;
+    pkss__pose p = pose_at(10.0, 1.0, 0.0), q = pose_at(11.0, 1.0, 0.0);
+    pkss__basins_add(b, &p, 7);
+    assert_int_equal(pkss__basins_find(b, &q, h, 3), 7);
+    assert_int_equal(pkss__basins_find(b, &q, h, 7), -1); /* its own minimum */
+    pkss__pose far = pose_at(40.0, 1.0, 0.0);
+    assert_int_equal(pkss__basins_find(b, &far, h, 3), -1);
+    int cap = (int)(sizeof b->owner / sizeof *b->owner);
+    for (int k = 0; k < cap + 5; ++k)
+        pkss__basins_add(b, &far, k);
+    assert_int_equal(b->n, cap);
+    pkss__basins_add(NULL, &far, 1); /* no table: nothing recorded */
+    free(b);
+}
+
+/* Candidates 0..n-1 of one search with these coarse overlaps, poses spread
+ * 30 degrees apart (distinct basins). */
+static pkss__refinement *set_of(const double *overlap, size_t n)
+{
+    pkss__refinement *rs = calloc(1, sizeof *rs);
+    assert_non_null(rs);
+    for (size_t c = 0; c < n; ++c) {
+        rs->ir[c].overlap = overlap[c];
+        rs->ir[c].pose = pose_at(30.0 * (double)c, 1.0, 0.0);
+    }
+    rs->n = n;
+    return rs;
+}
+
+static void test_full_run_choice(void **state)
+{
+    (void)state;
+    const double h = 0.01;
+    /* the best PKSS_FULL_REFINE (3) by overlap, less those below 0.6 x best */
+    const double ov1[5] = {0.5, 0.9, 0.8, 0.7, 0.3};
+    pkss__refinement *rs = set_of(ov1, 5);
+    int order[5];
+    pkss__order_by_overlap(rs->ir, 5, order);
+    assert_int_equal(order[0], 1);
+    assert_int_equal(order[4], 4);
+    assert_int_equal(pkss__initial_full_count(rs->ir, order, 5), 3);
+    const double ov2[3] = {0.9, 0.5, 0.4};
+    pkss__refinement *r2 = set_of(ov2, 3);
+    int o2[3];
+    pkss__order_by_overlap(r2->ir, 3, o2);
+    assert_int_equal(pkss__initial_full_count(r2->ir, o2, 3), 1);
+
+    /* the 4th by overlap is refined too when it reaches the leader's */
+    size_t n_full = 3;
+    rs->lead_overlap = 0.45;
+    assert_true(pkss__wants_full_run(rs, rs->ir, order, 3, &n_full, h));
+    assert_int_equal(n_full, 4);
+    /* ... but not when it stays below */
+    n_full = 3;
+    rs->lead_overlap = 0.75;
+    assert_false(pkss__wants_full_run(rs, rs->ir, order, 3, &n_full, h));
+    assert_int_equal(n_full, 3);
+    /* one in the start basin of a candidate ranked before it is not */
+    rs->lead_overlap = 0.0;
+    rs->ir[order[1]].pose = pose_at(30.0 * order[0] + 2.0, 1.0, 0.0);
+    n_full = 3;
+    assert_false(pkss__wants_full_run(rs, rs->ir, order, 1, &n_full, h));
+    assert_true(pkss__wants_full_run(rs, rs->ir, order, 2, &n_full, h));
+    /* a refined candidate of this search covering both clouds ends them */
+    rs->lead_here = PKSS_COARSE_COMPLETE;
+    assert_false(pkss__wants_full_run(rs, rs->ir, order, 2, &n_full, h));
+    free(rs);
+    free(r2);
+}
+
+static void test_winner_rule(void **state)
+{
+    (void)state;
+    const double ov[4] = {0.9, 0.9, 0.9, 0.9};
+    pkss__refinement *rs = set_of(ov, 4);
+    /* none refined (refine off): the first by search score */
+    assert_int_equal(pkss__pick_winner(rs), 0);
+    double fit[4] = {0.80, 0.95, 0.70, 0.99};
+    double rms[4] = {0.01, 0.02, 0.01, 0.01};
+    for (int c = 0; c < 4; ++c) {
+        rs->ir[c].fit = fit[c];
+        rs->ir[c].rms = rms[c];
+    }
+    rs->refined[0] = rs->refined[1] = rs->refined[2] = 1; /* 3: stopped */
+    assert_int_equal(pkss__pick_winner(rs), 1); /* highest fit among refined */
+    /* a fit within PKSS_OVERLAP_TIE is a tie that the lower RMS breaks */
+    rs->ir[0].fit = 0.95 - 0.5 * PKSS_OVERLAP_TIE;
+    assert_int_equal(pkss__pick_winner(rs), 0);
+    rs->ir[0].fit = 0.95 - 2.0 * PKSS_OVERLAP_TIE;
+    assert_int_equal(pkss__pick_winner(rs), 1);
+    free(rs);
+}
+
+static void test_part_mode(void **state)
+{
+    (void)state;
+    /* a source lying wholly on the template, covering clearly more of it */
+    assert_int_equal(pkss__part_mode(0.95, 0.60, PKSS__SCALE_MUTUAL),
+                     PKSS__SCALE_SOURCE_PART);
+    assert_int_equal(pkss__part_mode(0.55, 0.93, PKSS__SCALE_MUTUAL),
+                     PKSS__SCALE_TEMPLATE_PART);
+    /* both whole, or neither wholly on the other: mutual pairs */
+    assert_int_equal(pkss__part_mode(0.97, 0.96, PKSS__SCALE_MUTUAL), PKSS__SCALE_MUTUAL);
+    assert_int_equal(pkss__part_mode(0.70, 0.40, PKSS__SCALE_MUTUAL), PKSS__SCALE_MUTUAL);
+}
+
+static void test_schedules_defined_once(void **state)
+{
+    (void)state;
+    /* the coarse level is rigid, the full run frees the scale and polishes */
+    assert_int_equal(pkss__schedule_coarse.free_scale, 0);
+    assert_int_equal(pkss__schedule_coarse.rigid_iters, pkss__schedule_coarse.max_iters);
+    assert_int_equal(pkss__schedule_full.free_scale, PKSS__SCALE_MUTUAL);
+    assert_true(pkss__schedule_full.rigid_iters < pkss__schedule_full.max_iters);
+    assert_true(pkss__schedule_full.plane_iters > 0);
+    assert_int_equal(pkss__schedule_polish.max_iters, 0);
+    assert_true(pkss__schedule_polish.plane_iters > 0);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_same_basin_tolerances),
+        cmocka_unit_test(test_basins_skip_own_and_bound),
+        cmocka_unit_test(test_full_run_choice),
+        cmocka_unit_test(test_winner_rule),
+        cmocka_unit_test(test_part_mode),
+        cmocka_unit_test(test_schedules_defined_once),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
