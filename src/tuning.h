@@ -46,6 +46,15 @@
 #define PKSS_WIDE_SRC_COVER 0.4f
 /* bisection steps of the trimming threshold (ends within 2^-6) */
 #define PKSS_TRIM_STEPS 6
+/* offset grid step = extent / this (Eq. 12: E/8) and, in the wide second
+ * search, twice that step (E/4, reaching +-E/2) for a part's centroid */
+#define PKSS_OFFSET_DIV 8.0
+#define PKSS_WIDE_OFFSET_DIV 4.0
+/* top-k suppression (SPEC 5): a candidate within this geodesic angle of a
+ * kept one is dropped, so near-symmetric minima do not crowd the list */
+#define PKSS_TOPK_SUPPRESS_DEG 45.0
+/* entries within this make two Euler-grid rotations one (Eq. 10 repeats) */
+#define PKSS_SAME_ROTATION_TOL 1e-9
 
 /* ---- Refinement: which candidates (refine/stages.c) ------------------- */
 /* candidates started together on the coarse level before the rest: if
@@ -141,5 +150,7 @@
 #define ICP_THREAD_MIN 1000
 /* seconds between the caller's progress ticks while it waits */
 #define PKSS_WAIT_TICK 0.01
+/* seconds between progress callbacks within one stage */
+#define PKSS_PROGRESS_INTERVAL 0.02
 
 #endif

@@ -10,9 +10,6 @@
 #include <pthread.h>
 #include <string.h>
 
-/* Seconds between callbacks within one stage. */
-#define PROGRESS_INTERVAL 0.02
-
 void pkss__run_begin(pkss_context *ctx, pkss__run *run)
 {
     memset(run, 0, sizeof *run);
@@ -49,7 +46,7 @@ pkss_status pkss__checkpoint(pkss__run *run, int stage, uint32_t step,
     run->steps = steps;
     if (run->fn && !pkss__cancelled(run)) {
         double now = pkss__now();
-        if (changed || now - run->last_call >= PROGRESS_INTERVAL) {
+        if (changed || now - run->last_call >= PKSS_PROGRESS_INTERVAL) {
             pkss_progress p = {sizeof p, stage, step, steps, now - run->t0};
             run->last_call = now;
             if (run->fn(run->user, &p) != 0)

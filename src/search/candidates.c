@@ -47,7 +47,7 @@ static int alloc_set(pkss__rotation_set *rs, size_t n_rot, size_t n_bin)
 static int same_rotation(const double *A, const double *B)
 {
     for (int i = 0; i < 9; ++i)
-        if (fabs(A[i] - B[i]) > 1e-9)
+        if (fabs(A[i] - B[i]) > PKSS_SAME_ROTATION_TOL)
             return 0;
     return 1;
 }

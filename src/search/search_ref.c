@@ -144,7 +144,7 @@ size_t pkss__select_top_k(const float *scores, const float *gc,
         ++valid;
     }
     qsort(best, valid, sizeof *best, cmp_scored);
-    const double min_angle = 45.0 * PKSS_PI / 180.0;
+    const double min_angle = PKSS_TOPK_SUPPRESS_DEG * PKSS_PI / 180.0;
     size_t kept = 0;
     for (size_t i = 0; i < valid && kept < top_k; ++i) {
         uint32_t r = best[i].index / (uint32_t)n_offsets;

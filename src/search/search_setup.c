@@ -86,7 +86,7 @@ pkss_status pkss__search_setup_build(const pkss__params *p,
         pkss__search_setup_free(s);
         return st;
     }
-    s->offsets = build_offsets(tgt, p->offset_steps, 8.0, &s->n_offsets);
+    s->offsets = build_offsets(tgt, p->offset_steps, PKSS_OFFSET_DIV, &s->n_offsets);
     s->src_pts = pkss__malloc(src->m * 3 * sizeof(float));
     s->tgt_pts = pkss__malloc(tgt->m * 3 * sizeof(float));
     s->src_feat = pkss__malloc((src->n_feat + 1) * 3 * sizeof(float));
@@ -121,7 +121,7 @@ pkss_status pkss__search_setup_widen(const pkss__params *p,
                                      pkss__search_setup *s)
 {
     int n;
-    float *q = build_offsets(tgt, p->offset_steps, 4.0, &n);
+    float *q = build_offsets(tgt, p->offset_steps, PKSS_WIDE_OFFSET_DIV, &n);
     if (!q)
         return PKSS_ERR_OUT_OF_MEMORY;
     pkss__free(s->offsets);
