@@ -137,6 +137,9 @@ def main(argv=None):
     ap.add_argument("--rerun", nargs="*", default=[],
                     help="with --resume: drop these methods' rows from OUT/pairs.csv and run "
                          "them again (e.g. after a pkss change; the peers' rows stay)")
+    ap.add_argument("--readme", default="",
+                    help="after a run, write its headline table into this README's "
+                         "results block (tools/bench/headline.py)")
     ap.add_argument("--report-only", action="store_true",
                     help="rebuild tables and plots from OUT/pairs.csv")
     ap.add_argument("--pkss-lib", default="",
@@ -260,6 +263,10 @@ def main(argv=None):
     print(f"[bench] wrote {csv_path}, {md}, " + ", ".join(figs), file=sys.stderr)
     print(f"[bench] wall time {wall:.1f} s", file=sys.stderr)
     summary(rows)
+    if args.readme and not args.report_only:
+        import headline
+        headline.write(out, args.readme)
+        print(f"[bench] wrote the results headline into {args.readme}", file=sys.stderr)
     if args.quick:
         return quick_checks(rows)
     return 0
