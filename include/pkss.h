@@ -35,9 +35,10 @@
  * bounds, device listing) are thread-safe. A context, and a cloud, must not
  * be used by two threads at once; use one context per thread. Different
  * contexts are independent and may run concurrently. Internally a call
- * runs the two clouds' pre-processing and its candidates two at a time,
- * and a correspondence pass of 2000 points or more in two directions at
- * once: up to three extra threads, plus the OpenCL device's own.
+ * uses one extra thread, created at its first use and joined before the
+ * call returns, for the two clouds' pre-processing, candidates two at a
+ * time and the two directions of a correspondence pass; plus the OpenCL
+ * device's own threads.
  *
  * "SPEC N" is section N of docs/spec.md, which pins down what the paper
  * leaves open; "Eq. N" is the paper's equation N.
