@@ -117,7 +117,10 @@ typedef enum pkss_status {
     PKSS_ERR_UNKNOWN_PARAMETER = 8,/* pkss_param value not known */
     PKSS_ERR_WRONG_PARAMETER_TYPE = 9, /* int setter on a double param etc. */
     PKSS_ERR_CANCELLED = 10,       /* the progress callback asked to stop */
+    PKSS_ERR_FORMAT = 11,          /* a file's content is malformed or truncated */
+    PKSS_ERR_UNSUPPORTED_FORMAT = 12, /* a valid file variant no reader handles */
     PKSS_ERR_OUT_OF_MEMORY = 100,
+    PKSS_ERR_IO = 101,             /* a file cannot be opened, read or written */
     PKSS_ERR_NO_DEVICE = 200,      /* no OpenCL platform/device available */
     PKSS_ERR_DEVICE = 201,         /* an OpenCL call failed (see detail) */
     PKSS_ERR_KERNEL_BUILD = 202,   /* kernel compilation failed (log in detail) */

@@ -36,8 +36,8 @@ double *pkss_test_load(const char *relative, size_t *n)
     }
     double *xyz = NULL;
     char err[512];
-    pkss_io_status st = pkss_io_read(path, PKSS_IO_AUTO, &xyz, n, err, sizeof err);
-    if (st != PKSS_IO_OK) {
+    pkss_status st = pkss_read_points(path, PKSS_FORMAT_AUTO, &xyz, n, err, sizeof err);
+    if (st != PKSS_OK) {
         print_error("cannot load %s: %s\n", path, err);
         return NULL;
     }
@@ -50,7 +50,7 @@ double *pkss_test_load_bundled(const char *name, size_t *n)
     snprintf(path, sizeof path, "%s/%s", PKSS_TEST_DATA_DIR, name);
     double *xyz = NULL;
     char err[512];
-    if (pkss_io_read(path, PKSS_IO_AUTO, &xyz, n, err, sizeof err) != PKSS_IO_OK) {
+    if (pkss_read_points(path, PKSS_FORMAT_AUTO, &xyz, n, err, sizeof err) != PKSS_OK) {
         print_error("cannot load %s: %s\n", path, err);
         return NULL;
     }

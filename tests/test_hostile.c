@@ -4,7 +4,7 @@
  * hold. A row never crashes, hangs or returns a wrong pose as success; a
  * failed call leaves no pose behind. Rows marked (#21.N) are regressions
  * of the numbered items of issue #21. The second table is hostile files
- * through the readers (tools/io; the fuzz corpus and format details are in
+ * through the readers (src/io, pkss_io.h; the fuzz corpus and format details are in
  * test_io.c).
  */
 #define _POSIX_C_SOURCE 200809L
@@ -435,7 +435,7 @@ typedef struct hostile_file {
     const char *path;     /* read as it is when contents is NULL */
     const char *contents; /* else written to a temporary file first */
     size_t size;          /* of contents (0: strlen) */
-    pkss_io_status want;
+    pkss_status want;
     const char *fragment;
 } hostile_file;
 
@@ -443,36 +443,46 @@ typedef struct hostile_file {
 #define XYZ_PROPS "property float x\nproperty float y\nproperty float z\n"
 
 static const hostile_file FILES[] = {
-    {"(#21.1) /dev/zero", "/dev/zero", NULL, 0, PKSS_IO_ERR_ARGUMENT, "cannot tell the format"},
-    {"(#21.1) /dev/zero as .ply", NULL, NULL, 0, PKSS_IO_ERR_FORMAT, "not 'ply'"},
-    {"(#21.1) /dev/urandom", "/dev/urandom", NULL, 0, PKSS_IO_ERR_ARGUMENT, "cannot tell the format"},
-    {"(#21.1) 2 GB sparse .ply", NULL, NULL, 0, PKSS_IO_ERR_FORMAT, "not 'ply'"},
+    {"(#21.1) /dev/zero", "/dev/zero", NULL, 0, PKSS_ERR_INVALID_ARGUMENT, "cannot tell the format"},
+    {"(#21.1) /dev/zero as .ply", NULL, NULL, 0, PKSS_ERR_FORMAT, "not 'ply'"},
+    {"(#21.1) /dev/urandom", "/dev/urandom", NULL, 0, PKSS_ERR_INVALID_ARGUMENT, "cannot tell the format"},
+    {"(#21.1) 2 GB sparse .ply", NULL, NULL, 0, PKSS_ERR_FORMAT, "not 'ply'"},
     {"(#21.1) truncated binary PLY", NULL,
      "ply\nformat binary_little_endian 1.0\nelement vertex 100\n" XYZ_PROPS "end_header\n0123456789",
-     0, PKSS_IO_ERR_FORMAT, "truncated at byte"},
+     0, PKSS_ERR_FORMAT, "truncated at byte"},
     {"(#21.11) duplicate property x", NULL,
      PLY_HEAD("1", "property float x\nproperty float x\nproperty float z\n") "1 2 3\n", 0,
-     PKSS_IO_ERR_FORMAT, "second property 'x'"},
+     PKSS_ERR_FORMAT, "second property 'x'"},
     {"(#21.11) second vertex element", NULL,
      "ply\nformat ascii 1.0\nelement vertex 1\n" XYZ_PROPS "element vertex 1\n" XYZ_PROPS
-     "end_header\n1 2 3\n4 5 6\n", 0, PKSS_IO_ERR_FORMAT, "second 'vertex' element"},
+     "end_header\n1 2 3\n4 5 6\n", 0, PKSS_ERR_FORMAT, "second 'vertex' element"},
     {"(#21.11) rows after the declared count", NULL,
-     PLY_HEAD("2", XYZ_PROPS) "1 2 3\n4 5 6\n7 8 9\n", 0, PKSS_IO_ERR_FORMAT,
+     PLY_HEAD("2", XYZ_PROPS) "1 2 3\n4 5 6\n7 8 9\n", 0, PKSS_ERR_FORMAT,
      "data after the 2 vertices"},
     {"(#21.11) UTF-8 BOM before PLY", NULL, "\xEF\xBB\xBF" PLY_HEAD("1", XYZ_PROPS) "1 2 3\n", 0,
-     PKSS_IO_OK, ""},
+     PKSS_OK, ""},
     {"(#21.11) UTF-8 BOM before PCD", NULL,
      "\xEF\xBB\xBFVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 1\n"
-     "HEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3\n", 0, PKSS_IO_OK, ""},
-    {"(#21.11) UTF-8 BOM before OFF", NULL, "\xEF\xBB\xBFOFF\n1 0 0\n1 2 3\n", 0, PKSS_IO_OK, ""},
+     "HEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3\n", 0, PKSS_OK, ""},
+    {"(#21.11) UTF-8 BOM before OFF", NULL, "\xEF\xBB\xBFOFF\n1 0 0\n1 2 3\n", 0, PKSS_OK, ""},
     {"(#21.11) decimal commas, blanks", NULL, "0,5 1,5 2,5\n3,5 4,5 5,5\n", 0,
-     PKSS_IO_ERR_FORMAT, "decimal commas"},
+     PKSS_ERR_FORMAT, "decimal commas"},
     {"(#21.11) decimal commas, semicolons", NULL, "0,5;1,5;2,5\n3,5;4,5;5,5\n", 0,
-     PKSS_IO_ERR_FORMAT, "decimal commas"},
-    {"NUL byte in a text file", NULL, "1 2 3\n4 5\0 6\n", 12, PKSS_IO_ERR_FORMAT, "NUL byte"},
-    {"empty file", NULL, "", 0, PKSS_IO_ERR_EMPTY, "empty"},
-    {"a directory", "/tmp", NULL, 0, PKSS_IO_ERR_OPEN, ""},
-    {"a missing file", "/nonexistent/cloud.ply", NULL, 0, PKSS_IO_ERR_OPEN, "cannot open"},
+     PKSS_ERR_FORMAT, "decimal commas"},
+    {"NUL byte in a text file", NULL, "1 2 3\n4 5\0 6\n", 12, PKSS_ERR_FORMAT, "NUL byte"},
+    {"empty file", NULL, "", 0, PKSS_ERR_EMPTY_INPUT, "empty"},
+    {"/dev/zero as .npy", NULL, NULL, 0, PKSS_ERR_FORMAT, "no \\x93NUMPY magic"},
+    {"/dev/zero as .npz", NULL, NULL, 0, PKSS_ERR_FORMAT, "no zip end-of-directory"},
+    {"2 GB sparse .npy", NULL, NULL, 0, PKSS_ERR_FORMAT, "no \\x93NUMPY magic"},
+    {"2 GB sparse .npz", NULL, NULL, 0, PKSS_ERR_FORMAT, "no zip end-of-directory"},
+    {".npy header of 10^15 rows", NULL,
+     "\x93NUMPY\x01\x00\x49\x00{'descr': '<f8', 'fortran_order': False, "
+     "'shape': (1000000000000000, 3)}\n\0\0\0\0\0\0\0\0", 91, PKSS_ERR_FORMAT,
+     "expected 1000000000000000 points"},
+    {".npy header of 4 GB", NULL, "\x93NUMPY\x02\x00\xff\xff\xff\xff{", 13, PKSS_ERR_FORMAT,
+     "at most 65536"},
+    {"a directory", "/tmp", NULL, 0, PKSS_ERR_IO, ""},
+    {"a missing file", "/nonexistent/cloud.ply", NULL, 0, PKSS_ERR_IO, "cannot open"},
 };
 
 static void test_files(void **state)
@@ -485,7 +495,8 @@ static void test_files(void **state)
     for (size_t i = 0; i < n; ++i) {
         const hostile_file *h = &FILES[i];
         char path[512];
-        const char *ext = strstr(h->name, "PCD") ? "pcd" : strstr(h->name, "OFF") ? "off"
+        const char *ext = strstr(h->name, ".npy") ? "npy" : strstr(h->name, ".npz") ? "npz"
+                        : strstr(h->name, "PCD") ? "pcd" : strstr(h->name, "OFF") ? "off"
                         : strstr(h->name, "decimal") || strstr(h->name, "NUL") ? "xyz" : "ply";
         snprintf(path, sizeof path, "%s/case%zu.%s", dir, i, ext);
         if (h->path) {
@@ -508,18 +519,18 @@ static void test_files(void **state)
         char err[1024] = "";
         struct timespec t0, t1;
         clock_gettime(CLOCK_MONOTONIC, &t0);
-        pkss_io_status st = pkss_io_read(path, PKSS_IO_AUTO, &xyz, &np, err, sizeof err);
+        pkss_status st = pkss_read_points(path, PKSS_FORMAT_AUTO, &xyz, &np, err, sizeof err);
         clock_gettime(CLOCK_MONOTONIC, &t1);
         double secs = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
         int ok = st == h->want && strstr(err, h->fragment) != NULL && secs < 1.0;
-        printf("  %-3zu %-40s %-22s %.3f s %s %s\n", i + 1, h->name, pkss_io_status_name(st), secs,
+        printf("  %-3zu %-40s %-22s %.3f s %s %s\n", i + 1, h->name, pkss_status_name(st), secs,
                ok ? "ok  " : "FAIL", err);
         if (!ok) {
-            printf("      expected %s with \"%s\" in < 1 s\n", pkss_io_status_name(h->want),
+            printf("      expected %s with \"%s\" in < 1 s\n", pkss_status_name(h->want),
                    h->fragment);
             ++failed;
         }
-        pkss_io_free(xyz);
+        pkss_points_free(xyz);
         if (!h->path)
             unlink(path);
     }

@@ -2,9 +2,9 @@
 # bench_search: search-stage and end-to-end timings, OpenCL vs reference
 # (a developer tool: it links pkss_static to reach the search internals).
 #   POCL_CACHE_DIR=/tmp/pocl ./tools/bench_search [--runs 5] [--quick]
-if(TARGET pkss_static AND TARGET pkss_io)
+if(TARGET pkss_static)
   add_executable(bench_search "${CMAKE_CURRENT_LIST_DIR}/bench_search.c")
-  target_link_libraries(bench_search PRIVATE pkss_static pkss_io m)
+  target_link_libraries(bench_search PRIVATE pkss_static m)
   target_include_directories(bench_search PRIVATE "${PROJECT_SOURCE_DIR}/tests")
   set(PKSS_BENCH_DATA_DIR "${PROJECT_SOURCE_DIR}/../shared/data" CACHE PATH
       "Folder of the shared real scans used by bench_search")

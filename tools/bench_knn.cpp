@@ -8,9 +8,9 @@
  *   mkdir -p /tmp/bench_knn && cd /tmp/bench_knn &&
  *   cc -std=c11 -O2 -ffp-contract=off -I/work/main/include -I/work/main/src \
  *      -c /work/main/src/common/knn.c /work/main/src/common/alloc.c /work/main/src/preshape/thin.c &&
- *   cc -std=c11 -O2 -I/work/main/tools/io -c /work/main/tools/io/[a-z]*.c &&
+ *   cc -std=c11 -O2 -I/work/main/include -I/work/main/src -c /work/main/src/io/[a-z]*.c &&
  *   g++ -std=c++17 -O2 -I/work/main/include -I/work/main/src \
- *      -I/work/main/tools/io /work/main/tools/bench_knn.cpp *.o -lm \
+ *      /work/main/tools/bench_knn.cpp *.o -lm \
  *      -o bench_knn && ./bench_knn [cloud.ply|""] [runs]
  *
  * Default cloud: the 3DMatch fragment 3dmatch/7-scenes-redkitchen/

@@ -77,7 +77,7 @@ static double *load(const char *rel, size_t *n)
     snprintf(path, sizeof path, "%s/%s", g_data, rel);
     double *xyz = NULL;
     char err[512];
-    if (pkss_io_read(path, PKSS_IO_AUTO, &xyz, n, err, sizeof err) != PKSS_IO_OK) {
+    if (pkss_read_points(path, PKSS_FORMAT_AUTO, &xyz, n, err, sizeof err) != PKSS_OK) {
         fprintf(stderr, "bench_search: cannot read %s: %s\n", path, err);
         return NULL;
     }
@@ -421,10 +421,10 @@ int main(int argc, char **argv)
     }
     free(bs);
     free(bt);
-    pkss_io_free(bunny);
-    pkss_io_free(dragon);
-    pkss_io_free(ls);
-    pkss_io_free(lt);
+    pkss_points_free(bunny);
+    pkss_points_free(dragon);
+    pkss_points_free(ls);
+    pkss_points_free(lt);
     pkss_context_destroy(cl);
     pkss_context_destroy(ref);
     return 0;

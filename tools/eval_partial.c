@@ -44,7 +44,7 @@ static double *cut(pkss_test_rng *rng, const double *x, size_t n, double frac, s
   free(d2); free(s); *nout = m; return o;
 }
 static double *loadp(const char *rel, size_t *n) { const char *p = pkss_test_data_path(rel); double *x = NULL; char err[256];
-  if (!p || pkss_io_read(p, PKSS_IO_AUTO, &x, n, err, sizeof err) != PKSS_IO_OK) { printf("cannot load %s from the shared data folder\n", rel); exit(77);} return x; }
+  if (!p || pkss_read_points(p, PKSS_FORMAT_AUTO, &x, n, err, sizeof err) != PKSS_OK) { printf("cannot load %s from the shared data folder\n", rel); exit(77);} return x; }
 static void inv4(const double T[16], double I[16]) { /* rigid or similarity inverse */ pkss_test_inverse_similarity(T, I); }
 static void pair(const char *a, const char *b, const char *gtfile, const char *la, const char *lb, int seeds, int verbose) {
   /* GT: p_common = T_X * p_X ; T_target_source (B->A) = inv(T_A) T_B  -- source = B, target = A */

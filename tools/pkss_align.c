@@ -2,8 +2,8 @@
  * pkss_align.c -- pkss-align: registers SOURCE onto TARGET with a
  * similarity transform (scale, rotation, translation), no initial guess.
  *
- * A thin client of the public API (pkss.h) and of the file readers
- * (tools/io/pkss_io.h); it doubles as an example of using the library:
+ * A thin client of the public API (pkss.h) and of the library's file I/O
+ * (pkss_io.h); it doubles as an example of using the library:
  * create a context, set parameters one at a time (here generated from
  * pkss_param_at()), install a progress callback that can cancel,
  * pkss_register(), read the pkss_result and its candidates. The parts live
@@ -59,14 +59,15 @@ static int exit_for_status(pkss_status s)
     }
 }
 
-static int exit_for_io(pkss_io_status s)
+static int exit_for_io(pkss_status s)
 {
     switch (s) {
-    case PKSS_IO_OK: return EXIT_OK;
-    case PKSS_IO_ERR_OPEN: return EXIT_IO;
-    case PKSS_IO_ERR_ARGUMENT: return EXIT_USAGE;
-    case PKSS_IO_ERR_NOMEM: return EXIT_FAILURE_REG;
-    default: return EXIT_DATA; /* FORMAT, UNSUPPORTED, EMPTY */
+    case PKSS_OK: return EXIT_OK;
+    case PKSS_ERR_IO: return EXIT_IO;
+    case PKSS_ERR_INVALID_ARGUMENT:
+    case PKSS_ERR_NULL_ARGUMENT: return EXIT_USAGE;
+    case PKSS_ERR_OUT_OF_MEMORY: return EXIT_FAILURE_REG;
+    default: return EXIT_DATA; /* FORMAT, UNSUPPORTED_FORMAT, EMPTY_INPUT */
     }
 }
 
@@ -131,24 +132,24 @@ static int on_progress(void *user, const pkss_progress *p)
 
 /* ---------------------------------------------------------------- main */
 
-static int load(const char *what, const char *path, pkss_io_format fmt,
-                double **xyz, size_t *n, pkss_io_format *used)
+static int load(const char *what, const char *path, pkss_format fmt,
+                double **xyz, size_t *n, pkss_format *used)
 {
     char err[1024];
-    pkss_io_status st;
+    pkss_status st;
     int is_stdin = strcmp(path, "-") == 0;
-    *used = fmt != PKSS_IO_AUTO ? fmt : pkss_io_format_from_path(path);
-    st = pkss_io_read(path, fmt, xyz, n, err, sizeof err);
-    if (st != PKSS_IO_OK) {
+    *used = fmt != PKSS_FORMAT_AUTO ? fmt : pkss_format_from_path(path);
+    st = pkss_read_points(path, fmt, xyz, n, err, sizeof err);
+    if (st != PKSS_OK) {
         if (g_signal)
             return EXIT_INTERRUPTED;
-        if (is_stdin && fmt == PKSS_IO_AUTO && st == PKSS_IO_ERR_ARGUMENT)
+        if (is_stdin && fmt == PKSS_FORMAT_AUTO && st == PKSS_ERR_INVALID_ARGUMENT)
             cli_fail(USAGE_STATUS,
                      "%s is standard input and its content is not PLY, PCD, "
-                     "OFF or VTK: give its format with --%s-format",
+                     "OFF, VTK, NPY or NPZ: give its format with --%s-format",
                      what, what);
         else
-            cli_fail(pkss_io_status_name(st), "%s", err);
+            cli_fail(pkss_status_name(st), "%s", err);
         return exit_for_io(st);
     }
     return EXIT_OK;
@@ -182,7 +183,7 @@ enum { OUT_JSON, OUT_MATRIX, OUT_CLOUD, N_OUTS };
 static int write_outputs(cli_out *outs, const cli_run *run,
                          const pkss_context *ctx, pkss_status st,
                          const pkss_result *r, const double *src, size_t ns,
-                         cli_cloud_format cloud_fmt)
+                         pkss_format cloud_fmt)
 {
     int rc = EXIT_OK, k;
     FILE *f;
@@ -229,7 +230,7 @@ int main(int argc, char **argv)
     cli_options o;
     cli_run run;
     cli_out outs[N_OUTS];
-    cli_cloud_format cloud_fmt = CLI_CLOUD_NONE;
+    pkss_format cloud_fmt = PKSS_FORMAT_AUTO;
     progress_state ps;
     double *src = NULL, *tgt = NULL, t0;
     size_t ns = 0, nt = 0;
@@ -250,10 +251,10 @@ int main(int argc, char **argv)
     if (o.out_cloud) {
         cloud_fmt = o.out_format ? o.out_format
                                  : cli_cloud_format_from_path(o.out_cloud);
-        if (cloud_fmt == CLI_CLOUD_NONE) {
+        if (cloud_fmt == PKSS_FORMAT_AUTO) {
             cli_fail(USAGE_STATUS,
                      "-o %s: cannot tell the output format from the name "
-                     "(write .ply, .pcd or .xyz, or give --output-format)",
+                     "(write .ply, .pcd, .xyz or .npy, or give --output-format)",
                      o.out_cloud);
             rc = EXIT_USAGE;
             goto done;
@@ -366,8 +367,8 @@ done:
     for (i = 0; i < N_OUTS; i++)
         cli_out_discard(&outs[i]);
     pkss_context_destroy(ctx);
-    pkss_io_free(src);
-    pkss_io_free(tgt);
+    pkss_points_free(src);
+    pkss_points_free(tgt);
     if (rc == EXIT_INTERRUPTED && g_signal) {
         rc = 128 + g_signal;
         fprintf(stderr, TOOL ": PKSS_ERR_CANCELLED: interrupted by signal %d; "

@@ -22,7 +22,7 @@ static double *load(const char *path, size_t *n)
 {
     double *xyz = NULL;
     char err[512];
-    if (pkss_io_read(path, PKSS_IO_AUTO, &xyz, n, err, sizeof err) != PKSS_IO_OK) {
+    if (pkss_read_points(path, PKSS_FORMAT_AUTO, &xyz, n, err, sizeof err) != PKSS_OK) {
         fprintf(stderr, "pkss-demo: %s\n", err);
         return NULL;
     }

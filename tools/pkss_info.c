@@ -171,7 +171,7 @@ static void print_params_tsv(void)
 static int finish(int rc)
 {
     if (fflush(stdout) != 0 || ferror(stdout)) {
-        fprintf(stderr, TOOL ": PKSS_IO_ERR_OPEN: cannot write to standard "
+        fprintf(stderr, TOOL ": PKSS_ERR_IO: cannot write to standard "
                         "output\n");
         return rc ? rc : 3;
     }

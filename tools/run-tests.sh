@@ -12,7 +12,8 @@
 #   4. a ThreadSanitizer build running the tests that register through every
 #      threaded path (pre-processing, candidates, correspondences, cancel);
 #   5. the Python package installed with pip into a venv, and its pytest
-#      suite;
+#      suite; then every packaging route (sdist, manylinux wheel, editable;
+#      tests/package/python_routes.sh);
 #   6. the benchmark's --quick smoke run.
 # Needs the packages of tools/install-deps.sh.
 set -euo pipefail
@@ -59,6 +60,8 @@ python3 -m venv build/venv
 build/venv/bin/python -m pip install -q --upgrade pip
 build/venv/bin/python -m pip install -q ./bindings/python pytest
 build/venv/bin/python -m pytest bindings/python/tests -q
+# sdist, auditwheel-repaired wheel and editable install, each in a fresh venv
+bash tests/package/python_routes.sh build/python-routes
 
 echo "== [6/6] benchmark smoke run (tools/bench/run.py --quick)"
 if [ -f tools/bench/run.py ]; then

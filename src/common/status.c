@@ -19,7 +19,10 @@
     X(PKSS_ERR_UNKNOWN_PARAMETER, "The parameter identifier is not known.")    \
     X(PKSS_ERR_WRONG_PARAMETER_TYPE, "The parameter has another type than the setter used.") \
     X(PKSS_ERR_CANCELLED, "The progress callback cancelled the call.")         \
+    X(PKSS_ERR_FORMAT, "The file's content is malformed or truncated.")       \
+    X(PKSS_ERR_UNSUPPORTED_FORMAT, "The file is of a valid variant that no reader handles.") \
     X(PKSS_ERR_OUT_OF_MEMORY, "Memory allocation failed.")                     \
+    X(PKSS_ERR_IO, "A file cannot be opened, read or written.")               \
     X(PKSS_ERR_NO_DEVICE, "No OpenCL device is available.")                    \
     X(PKSS_ERR_DEVICE, "An OpenCL call failed.")                               \
     X(PKSS_ERR_KERNEL_BUILD, "The OpenCL kernels failed to compile for the device.") \

@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: MIT
  * check_pose.c -- helper of the CLI tests: compares a 4x4 similarity
  * written by pkss-align (--matrix) with ground truth, and checks output
- * clouds. Uses only the file readers (tools/io), not the library.
+ * clouds. Uses only the file readers of the library (pkss_io.h).
  *
  *   check_pose pose EST GT SOURCE TARGET MAX_ROT_DEG MAX_SCALE MAX_TRANS
  *              [GT_SOURCE_LABEL GT_TARGET_LABEL]
@@ -123,8 +123,8 @@ static double *load(const char *path, size_t *n)
 {
     double *xyz = NULL;
     char err[1024];
-    if (pkss_io_read(path, PKSS_IO_AUTO, &xyz, n, err, sizeof err) !=
-        PKSS_IO_OK) {
+    if (pkss_read_points(path, PKSS_FORMAT_AUTO, &xyz, n, err, sizeof err) !=
+        PKSS_OK) {
         fprintf(stderr, "check_pose: %s\n", err);
         return NULL;
     }

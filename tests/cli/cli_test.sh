@@ -84,7 +84,7 @@ case_usage_unknown_param()  { run 2 "$ALIGN" a.ply b.ply --set warp=9; stderr_ha
 case_usage_unknown_extension() {
     make_cloud "$WORK/cloud.dat" 100
     run 2 "$ALIGN" "$WORK/cloud.dat" "$WORK/cloud.dat"
-    stderr_has PKSS_IO_ERR_ARGUMENT
+    stderr_has PKSS_ERR_INVALID_ARGUMENT
 }
 case_help() {
     run 0 "$ALIGN" --help
@@ -110,12 +110,12 @@ case_info() {
 case_missing_file() {
     make_cloud "$WORK/t.xyz" 100
     run 3 "$ALIGN" "$WORK/nope.ply" "$WORK/t.xyz"
-    stderr_has "^pkss-align: PKSS_IO_ERR_OPEN: .*nope\.ply"
+    stderr_has "^pkss-align: PKSS_ERR_IO: .*nope\.ply"
 }
 case_directory_input() { make_cloud "$WORK/t.xyz" 100; run 3 "$ALIGN" "$WORK" "$WORK/t.xyz" --format xyz; }
 case_unwritable_output() {
     run 3 "$ALIGN" a.ply b.ply -o "$WORK/no/such/dir/out.ply"
-    stderr_has PKSS_IO_ERR_OPEN
+    stderr_has PKSS_ERR_IO
 }
 case_unwritable_json() { run 3 "$ALIGN" a.ply b.ply --json "$WORK"; }
 
@@ -124,14 +124,14 @@ case_malformed_lying_header() {
     printf 'ply\nformat binary_little_endian 1.0\nelement vertex 1000000000000\nproperty float x\nproperty float y\nproperty float z\nend_header\n0123456789ab' > "$WORK/lie.ply"
     make_cloud "$WORK/t.xyz" 100
     run 4 "$ALIGN" "$WORK/lie.ply" "$WORK/t.xyz"
-    stderr_has 'PKSS_IO_ERR_FORMAT: .*lie\.ply.*1000000000000 vertices'
+    stderr_has 'PKSS_ERR_FORMAT: .*lie\.ply.*1000000000000 vertices'
 }
 case_malformed_truncated() {
     { printf 'ply\nformat ascii 1.0\nelement vertex 100\nproperty float x\nproperty float y\nproperty float z\nend_header\n'
       awk 'BEGIN { for (i = 0; i < 60; i++) print i, i * 2, i * 3 }'; } > "$WORK/cut.ply"
     make_cloud "$WORK/t.xyz" 100
     run 4 "$ALIGN" "$WORK/t.xyz" "$WORK/cut.ply"
-    stderr_has PKSS_IO_ERR_FORMAT
+    stderr_has PKSS_ERR_FORMAT
 }
 case_malformed_garbage() {
     awk 'BEGIN { for (i = 0; i < 300; i++) printf "%c", (i * 37 + 1) % 256 }' > "$WORK/garbage.pcd"
@@ -148,7 +148,7 @@ case_empty_file() {
     : > "$WORK/empty.ply"
     make_cloud "$WORK/t.xyz" 100
     run 4 "$ALIGN" "$WORK/empty.ply" "$WORK/t.xyz"
-    stderr_has PKSS_IO_ERR_EMPTY
+    stderr_has PKSS_ERR_EMPTY_INPUT
 }
 case_nan_file() {
     make_cloud "$WORK/s.xyz" 400 17
@@ -266,14 +266,14 @@ case_stdout_full() {
         "$ALIGN" "$WORK/s.xyz" "$WORK/t.xyz" "${FAST[@]}" $flags >/dev/full 2>"$ERR"
         rc=$?
         [ "$rc" -eq 3 ] || fail "exit $rc with stdout on /dev/full ($flags), expected 3"
-        stderr_has '^pkss-align: PKSS_IO_ERR_OPEN: .*standard output'
+        stderr_has '^pkss-align: PKSS_ERR_IO: .*standard output'
     done
     for flags in "" --params --version; do
         echo "+ $INFO $flags > /dev/full"
         "$INFO" $flags >/dev/full 2>"$ERR"
         rc=$?
         [ "$rc" -eq 3 ] || fail "pkss-info $flags > /dev/full: exit $rc, expected 3"
-        stderr_has '^pkss-info: PKSS_IO_ERR_OPEN: .*standard output'
+        stderr_has '^pkss-info: PKSS_ERR_IO: .*standard output'
     done
 }
 

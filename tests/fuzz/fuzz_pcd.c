@@ -1,4 +1,4 @@
 /* SPDX-License-Identifier: MIT
- * fuzz_pcd.c -- libFuzzer harness: pkss_io_read_memory() as PCD. */
-#define FUZZ_FORMAT PKSS_IO_PCD
+ * fuzz_pcd.c -- libFuzzer harness: pkss_read_points_buffer() as PCD. */
+#define FUZZ_FORMAT PKSS_FORMAT_PCD
 #include "fuzz_common.h"

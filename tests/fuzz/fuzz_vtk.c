@@ -1,4 +1,4 @@
 /* SPDX-License-Identifier: MIT
- * fuzz_vtk.c -- libFuzzer harness: pkss_io_read_memory() as VTK. */
-#define FUZZ_FORMAT PKSS_IO_VTK
+ * fuzz_vtk.c -- libFuzzer harness: pkss_read_points_buffer() as VTK. */
+#define FUZZ_FORMAT PKSS_FORMAT_VTK
 #include "fuzz_common.h"

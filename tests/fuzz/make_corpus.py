@@ -217,6 +217,51 @@ def vtk_seeds():
         put("vtk", "tum_rabbit_head.vtk", txt)
 
 
+def npy_bytes(pts, descr="<f8", fortran=False, version=(1, 0), header=None):
+    """An .npy file as numpy writes it (header padded to 64 bytes)."""
+    fmt = {"<f8": "<d", ">f8": ">d", "<f4": "<f", ">f4": ">f"}[descr]
+    if header is None:
+        header = "{'descr': '%s', 'fortran_order': %s, 'shape': (%d, 3), }" % (
+            descr, "True" if fortran else "False", len(pts))
+    pre = 10 if version[0] == 1 else 12
+    pad = (-(pre + len(header) + 1)) % 64
+    header = (header + " " * pad + "\n").encode("utf-8" if version[0] == 3 else "latin1")
+    size = struct.pack("<H", len(header)) if version[0] == 1 else struct.pack("<I", len(header))
+    cols = [c for p in pts for c in p] if not fortran else [p[k] for k in range(3) for p in pts]
+    return (b"\x93NUMPY" + bytes(version) + size + header +
+            b"".join(struct.pack(fmt, c) for c in cols))
+
+
+def npz_bytes(members):
+    """A stored zip of .npy members with zip64 local headers, like np.savez."""
+    import io
+    import zipfile
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", compression=zipfile.ZIP_STORED) as z:
+        for name, data in members:
+            info = zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0))
+            with z.open(info, "w", force_zip64=True) as f:
+                f.write(data)
+    return buf.getvalue()
+
+
+def npy_seeds():
+    put("npy", "f8_c_v1.npy", npy_bytes(PTS))
+    put("npy", "f4_fortran.npy", npy_bytes(PTS, "<f4", fortran=True))
+    put("npy", "f8_be_v2.npy", npy_bytes(PTS[:2], ">f8", version=(2, 0)))
+    put("npy", "f4_v3.npy", npy_bytes(PTS[:3], "<f4", version=(3, 0)))
+    put("npy", "py2_long.npy", npy_bytes(PTS[:2], header=(
+        "{'descr': '<f8', 'fortran_order': False, 'shape': (2L, 3L), }")))
+
+
+def npz_seeds():
+    put("npz", "single.npz", npz_bytes([("arr_0.npy", npy_bytes(PTS))]))
+    put("npz", "points_and_more.npz", npz_bytes([
+        ("normals.npy", npy_bytes(PTS[:2], "<f4")), ("points.npy", npy_bytes(PTS))]))
+    put("npz", "xyz.npz", npz_bytes([("xyz.npy", npy_bytes(PTS[:3], "<f4", fortran=True)),
+                                     ("ids.npy", npy_bytes(PTS[:1]))]))
+
+
 if __name__ == "__main__":
     ply_seeds()
     pcd_seeds()
@@ -224,6 +269,8 @@ if __name__ == "__main__":
     off_seeds()
     kitti_seeds()
     vtk_seeds()
+    npy_seeds()
+    npz_seeds()
     total = 0
     for root, _, files in os.walk(OUT):
         for fn in files:

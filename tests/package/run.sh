@@ -8,6 +8,7 @@
 #   1c. the same CMake project with pkss as a subproject (add_subdirectory:
 #      the in-tree pkss::pkss alias; checks that no cmocka/LAPACKE is asked for);
 #   2. the same consumer.c built with `cc ... $(pkg-config --cflags --libs pkss)`;
+#   1/2 (io): consumer_io.c, the installed file I/O (pkss_io.h), both ways;
 #   3. the Rust example (examples/rust, plain extern "C", no crates), when
 #      cargo is on PATH.
 # Each registers tests/data/airplane_0001_{s,t}.ply and checks the ground
@@ -41,6 +42,8 @@ cmake --build "$work/cmake" -j"${JOBS:-2}" >/dev/null
 # not linked to the build tree: the rpath CMake set points into the prefix
 readelf -d "$work/cmake/pkss-consumer" | grep -E 'R(UN)?PATH' | sed 's/^ */  /'
 "$work/cmake/pkss-consumer" "${pair[@]}"
+echo "-- consumer 1 (io): pkss_io.h, read / write .npy .pcd / register"
+"$work/cmake/pkss-consumer-io" "${pair[0]}" "${pair[1]}" "$work"
 if [ $static = ON ]; then
     echo "-- consumer 1b: pkss::pkss_static (libpkss.a)"
     if readelf -d "$work/cmake/pkss-consumer-static" | grep -q 'libpkss'; then
@@ -67,6 +70,9 @@ $CC -std=c11 -O2 -Wall -Wextra -o "$work/pc-consumer" "$here/consumer.c" \
     $(pkg-config --cflags --libs pkss) -lm \
     -Wl,-rpath,"$(pkg-config --variable=libdir pkss)"
 "$work/pc-consumer" "${pair[@]}"
+$CC -std=c11 -O2 -Wall -Wextra -o "$work/pc-consumer-io" "$here/consumer_io.c" \
+    $(pkg-config --cflags --libs pkss) -Wl,-rpath,"$(pkg-config --variable=libdir pkss)"
+"$work/pc-consumer-io" "${pair[0]}" "${pair[1]}" "$work"
 
 echo "-- consumer 3: Rust (examples/rust, extern \"C\", cargo --offline)"
 if command -v cargo >/dev/null 2>&1; then

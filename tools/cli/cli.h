@@ -4,7 +4,7 @@
  *                 generated from pkss_param_at() at run time
  *   outfile.c     outputs that never lose or corrupt a file: temporary
  *                 file in the target's folder, fsync, rename; streams
- *   cloud_write.c the aligned cloud as PLY (tools/io), PCD or XYZ
+ *   cloud_write.c the aligned cloud as PLY, PCD, XYZ or NPY (pkss_io.h)
  *   report.c      JSON, the matrix and the -v report
  * Private to the tool; only pkss.h and pkss_io.h are public.
  */
@@ -29,10 +29,10 @@ enum {
     EXIT_INTERRUPTED = 130
 };
 
-/* Usage errors use the library's name for a bad argument; write errors the
- * readers' name for an I/O failure (pkss_io has no separate write status). */
+/* Usage errors use the library's name for a bad argument, I/O errors its
+ * name for a file that cannot be read or written. */
 #define USAGE_STATUS "PKSS_ERR_INVALID_ARGUMENT"
-#define IO_STATUS "PKSS_IO_ERR_OPEN"
+#define IO_STATUS "PKSS_ERR_IO"
 
 void cli_fail(const char *status, const char *fmt, ...)
 #if defined(__GNUC__)
@@ -41,14 +41,6 @@ void cli_fail(const char *status, const char *fmt, ...)
     ;
 
 /* ------------------------------------------------------------ options.c */
-
-/* Formats the aligned cloud can be written in. */
-typedef enum cli_cloud_format {
-    CLI_CLOUD_NONE = 0,
-    CLI_CLOUD_PLY,
-    CLI_CLOUD_PCD,
-    CLI_CLOUD_XYZ
-} cli_cloud_format;
 
 /* One parameter setting from the command line, applied in order. */
 typedef struct cli_setting {
@@ -66,9 +58,9 @@ typedef struct cli_setting {
 typedef struct cli_options {
     const char *source, *target;
     const char *out_cloud, *json, *matrix;
-    cli_cloud_format out_format; /* from --output-format, else extension */
+    pkss_format out_format; /* from --output-format, else extension (AUTO) */
     int ascii, quiet, verbose;
-    pkss_io_format fmt_source, fmt_target;
+    pkss_format fmt_source, fmt_target;
     cli_setting settings[CLI_MAX_SETTINGS];
     int n_settings;
 } cli_options;
@@ -116,11 +108,7 @@ int cli_out_plan(cli_out *o, const char *what, const char *path);
  * path, stdout, or the stream itself. @return the FILE or NULL (printed). */
 FILE *cli_out_open(cli_out *o);
 
-/* For writers that take a path: the path to write (the temporary file or
- * the stream's own path; NULL for stdout). Call instead of cli_out_open. */
-const char *cli_out_reserve(cli_out *o);
-
-/* Flushes, checks, fsyncs and closes what cli_out_open/reserve gave.
+/* Flushes, checks, fsyncs and closes what cli_out_open gave.
  * @return 0 or -1 (message printed; the temporary file is removed). */
 int cli_out_close(cli_out *o);
 
@@ -136,15 +124,14 @@ void cli_out_unlink_all_from_signal(void);
 
 /* -------------------------------------------------------- cloud_write.c */
 
-/* The format of an output path by its extension (.ply .pcd .xyz),
- * CLI_CLOUD_NONE for any other. */
-cli_cloud_format cli_cloud_format_from_path(const char *path);
-cli_cloud_format cli_cloud_format_from_name(const char *name);
-const char *cli_cloud_format_name(cli_cloud_format f);
+/* The format of an output path by its extension (.ply .pcd .xyz .npy) or
+ * of a name; PKSS_FORMAT_AUTO for one the library cannot write. */
+pkss_format cli_cloud_format_from_path(const char *path);
+pkss_format cli_cloud_format_from_name(const char *name);
 
 /* Writes n points (row-major x y z) to the output.
  * @return EXIT_OK or EXIT_IO (printed). */
-int cli_write_cloud(cli_out *o, cli_cloud_format fmt, const double *xyz,
+int cli_write_cloud(cli_out *o, pkss_format fmt, const double *xyz,
                     size_t n, int ascii);
 
 /* -------------------------------------------------------------- report.c */
@@ -152,7 +139,7 @@ int cli_write_cloud(cli_out *o, cli_cloud_format fmt, const double *xyz,
 typedef struct cli_run {
     const cli_options *o;
     size_t n_source, n_target;
-    pkss_io_format fmt_source, fmt_target;
+    pkss_format fmt_source, fmt_target;
     double load_seconds;
 } cli_run;
 

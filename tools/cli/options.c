@@ -395,8 +395,8 @@ static void print_help(void)
         "refused):\n"
         "  -o, --output FILE       SOURCE transformed by the result; the "
         "format follows\n"
-        "                          the extension: .ply .pcd .xyz\n"
-        "  --output-format F       ply, pcd or xyz (needed for '-' and "
+        "                          the extension: .ply .pcd .xyz .npy\n"
+        "  --output-format F       ply, pcd, xyz or npy (needed for '-' and "
         "names without\n"
         "                          one of those extensions)\n"
         "  --ascii                 write PLY as text (default binary "
@@ -457,10 +457,10 @@ static void print_help(void)
 
 /* ------------------------------------------------------------- parsing */
 
-static int parse_format(const char *opt, const char *v, pkss_io_format *out)
+static int parse_format(const char *opt, const char *v, pkss_format *out)
 {
-    pkss_io_format f = pkss_io_format_from_name(v);
-    if (pkss_io_format_name(f) == NULL) {
+    pkss_format f = pkss_format_from_name(v);
+    if (pkss_format_name(f) == NULL) {
         cli_fail(USAGE_STATUS,
                  "%s: unknown format '%s' (ply pcd xyz txt csv pts off bin "
                  "kitti vtk auto)",
@@ -538,8 +538,8 @@ static int tool_option(cli_options *o, int id, const char *opt,
     case 't': return parse_format(opt, val, &o->fmt_target);
     case 'O':
         o->out_format = cli_cloud_format_from_name(val);
-        if (o->out_format == CLI_CLOUD_NONE) {
-            cli_fail(USAGE_STATUS, "%s: cannot write '%s' (ply, pcd or xyz)",
+        if (o->out_format == PKSS_FORMAT_AUTO) {
+            cli_fail(USAGE_STATUS, "%s: cannot write '%s' (ply, pcd, xyz or npy)",
                      opt, val);
             return -1;
         }
@@ -676,7 +676,7 @@ int cli_parse_args(int argc, char **argv, cli_options *o)
 {
     int i, npos = 0, only_pos = 0;
     memset(o, 0, sizeof *o);
-    o->fmt_source = o->fmt_target = PKSS_IO_AUTO;
+    o->fmt_source = o->fmt_target = PKSS_FORMAT_AUTO;
     if (load_params() != 0)
         return -1;
     for (i = 1; i < argc; i++) {

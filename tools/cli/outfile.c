@@ -298,24 +298,6 @@ FILE *cli_out_open(cli_out *o)
     }
 }
 
-const char *cli_out_reserve(cli_out *o)
-{
-    int fd;
-    switch (o->kind) {
-    case CLI_OUT_STDOUT:
-        return NULL;
-    case CLI_OUT_STREAM:
-        return o->path;
-    case CLI_OUT_FILE:
-    default:
-        fd = make_temp(o);
-        if (fd < 0)
-            return NULL;
-        close(fd); /* the writer reopens it by name */
-        return o->tmp;
-    }
-}
-
 static int sync_path(const char *path)
 {
     int fd = open(path, O_RDONLY), rc;
@@ -347,12 +329,6 @@ int cli_out_close(cli_out *o)
             }
         }
         o->f = NULL;
-    } else if (o->kind == CLI_OUT_FILE && o->tmp) {
-        /* written by name (cli_out_reserve) */
-        if (sync_path(o->tmp) != 0) {
-            bad = 1;
-            err = errno;
-        }
     }
     if (bad) {
         cli_fail(IO_STATUS, "%s: write failed while writing %s: %s",

@@ -153,10 +153,10 @@ static void json_counts(FILE *f, const pkss_counts *c)
             (unsigned long long)c->features);
 }
 
-static void json_input(FILE *f, const char *path, pkss_io_format fmt,
+static void json_input(FILE *f, const char *path, pkss_format fmt,
                        size_t n)
 {
-    const char *name = pkss_io_format_name(fmt);
+    const char *name = pkss_format_name(fmt);
     fputs("{\"path\": ", f);
     json_str(f, path);
     fputs(", \"format\": ", f);

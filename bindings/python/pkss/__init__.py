@@ -20,6 +20,12 @@ frame; its upper-left 3x3 block is ``s * R``.
   read from the C library (the keyword arguments and their documentation are
   built from the same table at import).
 * :func:`devices` -- the OpenCL devices the library sees.
+* :func:`read_points` / :func:`write_points` -- point cloud files (PLY, PCD,
+  XYZ, OFF, KITTI, VTK, .npy, .npz) through the C library's readers
+  (:mod:`pkss.io`). Arrays, Open3D clouds (legacy and tensor) and
+  ``o3d.core.Tensor`` are accepted wherever points are.
+* ``python -m pkss align|info`` and the ``pkss-align`` / ``pkss-info``
+  commands: the C tools bundled in the wheel (:mod:`pkss.__main__`).
 
 Errors from the C library raise :class:`Error` (``.status``, ``.name``,
 ``.detail``); bad input raises :class:`InvalidArgument`, which is also a
@@ -43,6 +49,7 @@ from typing import Any, Callable, Dict, Iterable, List, Optional, Tuple, Union
 
 import numpy as np
 
+from ._convert import open3d_points as _open3d_points
 from ._lib import ffi, lib, library_path
 
 __all__ = [
@@ -52,6 +59,7 @@ __all__ = [
     "Error", "InvalidArgument", "OutOfMemory", "DeviceError", "NumericalError", "Cancelled",
     "DeviceWarning", "status_name", "status_string", "build_info",
     "__version__", "library_version", "library_path", "MAX_CANDIDATES",
+    "read_points", "write_points", "FileError",
 ]
 
 #: Version of the binding: the pkss.h it was built from.
@@ -651,6 +659,7 @@ def _check_progress(progress: Any) -> Optional[ProgressFn]:
 # --------------------------------------------------------------------- input
 def _as_points(obj: Any, what: str, finite: bool = True) -> np.ndarray:
     """Any (N, 3) array-like of reals -> C-contiguous float64 (N, 3)."""
+    obj = _open3d_points(obj, what, _invalid)  # tensor clouds and tensors: pkss/_convert.py
     if not isinstance(obj, np.ndarray) and hasattr(obj, "points"):
         obj = obj.points  # Open3D PointCloud and similar containers
     if isinstance(obj, np.ma.MaskedArray):
@@ -1239,3 +1248,6 @@ def devices() -> DeviceList:
                           bool(d.is_gpu), bool(d.has_fp64), int(d.compute_units),
                           int(d.global_mem_bytes)))
     return out
+
+
+from .io import FileError, read_points, write_points  # noqa: E402  (uses the above)

@@ -1,7 +1,8 @@
 # SPDX-License-Identifier: MIT
-"""Build-time helpers: the cffi declarations come from include/pkss.h.
+"""Build-time helpers: the cffi declarations come from include/pkss.h and
+include/pkss_io.h.
 
-The public header keeps the declarations a binding needs between the
+Each public header keeps the declarations a binding needs between the
 ``/* PKSS_CDEF_BEGIN */`` and ``/* PKSS_CDEF_END */`` markers, written so that
 cffi can parse them once the ``PKSS_API`` export token is removed. This module
 extracts that block (plus the header's plain integer ``#define`` lines, so
@@ -36,23 +37,37 @@ def int_defines(header_text: str) -> Dict[str, int]:
     return {m.group(1): int(m.group(2)) for m in _INT_DEFINE.finditer(header_text)}
 
 
-def extract_cdef(header_text: str) -> str:
-    """Return the cdef text cffi parses, derived from the text of pkss.h.
-
-    Raises ValueError if the markers are missing or out of order.
-    """
+def _block(header_text: str, name: str) -> str:
     begin = header_text.find(BEGIN_MARKER)
     end = header_text.find(END_MARKER)
     if begin < 0 or end < 0 or end < begin:
-        raise ValueError("pkss.h: the %s ... %s block is missing" % (BEGIN_MARKER, END_MARKER))
+        raise ValueError("%s: the %s ... %s block is missing" % (name, BEGIN_MARKER, END_MARKER))
+    return _EXPORT_TOKEN.sub("", header_text[begin + len(BEGIN_MARKER):end]).strip("\n") + "\n"
+
+
+def extract_cdef(header_text: str, io_header_text: Optional[str] = None) -> str:
+    """Return the cdef text cffi parses, derived from the text of pkss.h
+    (followed by the block of pkss_io.h when its text is given).
+
+    Raises ValueError if the markers are missing or out of order.
+    """
     defines = int_defines(header_text)
-    block = _EXPORT_TOKEN.sub("", header_text[begin + len(BEGIN_MARKER):end])
+    block = _block(header_text, "pkss.h")
+    if io_header_text is not None:
+        block += _block(io_header_text, "pkss_io.h")
     # Array sizes written with a macro name would not parse: use the values.
     for name, value in defines.items():
         block = re.sub(r"\[\s*%s\s*\]" % name, "[%d]" % value, block)
     lines = ["/* Generated from include/pkss.h by pkss/_build.py: do not edit. */"]
     lines += ["#define %s %d" % kv for kv in defines.items()]
     return "\n".join(lines) + "\n" + block.strip("\n") + "\n"
+
+
+def cdef_for(include_dir: Path) -> str:
+    """The cdef of the headers in `include_dir` (pkss.h, and pkss_io.h)."""
+    io = include_dir / "pkss_io.h"
+    return extract_cdef((include_dir / "pkss.h").read_text(encoding="utf-8"),
+                        io.read_text(encoding="utf-8") if io.is_file() else None)
 
 
 def version_from_header(header_text: str) -> str:
@@ -70,14 +85,19 @@ def is_repo_root(path: Path) -> bool:
             and (path / "src").is_dir())
 
 
+#: Where an sdist carries the C sources (next to setup.py).
+SDIST_SOURCES = "csrc"
+
+
 def find_repo_root(start: Path) -> Optional[Path]:
-    """The pkss source tree: $PKSS_SOURCE_DIR, else the closest ancestor of
-    `start` (normally bindings/python, so ../..) that holds the C sources."""
+    """The pkss source tree: $PKSS_SOURCE_DIR, else `start`/csrc (an unpacked
+    sdist), else the closest ancestor of `start` (normally bindings/python,
+    so ../..) that holds the C sources."""
     env = os.environ.get("PKSS_SOURCE_DIR")
     if env:
         p = Path(env).resolve()
         return p if is_repo_root(p) else None
-    for p in [start.resolve(), *start.resolve().parents]:
+    for p in [start.resolve() / SDIST_SOURCES, start.resolve(), *start.resolve().parents]:
         if is_repo_root(p):
             return p
     return None
@@ -95,7 +115,7 @@ def make_ffibuilder(cdef_text: str):
 
 def write_module(header: Path, package_dir: Path) -> None:
     """Write pkss/_pkss.py (the ABI-mode module) and pkss/_cdef.h."""
-    cdef = extract_cdef(header.read_text(encoding="utf-8"))
+    cdef = cdef_for(header.parent)
     package_dir.mkdir(parents=True, exist_ok=True)
     (package_dir / CDEF_FILE).write_text(cdef, encoding="utf-8")
     make_ffibuilder(cdef).emit_python_code(str(package_dir / "_pkss.py"))

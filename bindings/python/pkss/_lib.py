@@ -2,7 +2,7 @@
 """Finds and loads libpkss (cffi ABI mode) and checks its version.
 
 Loader order:
-  1. the library bundled next to this file by ``pip install`` (libpkss.so);
+  1. the library bundled in this package by ``pip install`` (lib/libpkss.so.1);
   2. the file named by the ``PKSS_LIBRARY`` environment variable;
   3. ``ctypes.util.find_library("pkss")`` (a system-wide install).
 """
@@ -16,12 +16,13 @@ from typing import List, Tuple
 
 _HERE = Path(__file__).resolve().parent
 
+# lib/ holds the library under the name the bundled tools (bin/) link to.
 if sys.platform == "darwin":
-    BUNDLED_NAMES = ("libpkss.dylib",)
+    BUNDLED_NAMES = ("lib/libpkss.1.dylib",)
 elif sys.platform == "win32":
     BUNDLED_NAMES = ("pkss.dll",)
 else:
-    BUNDLED_NAMES = ("libpkss.so",)
+    BUNDLED_NAMES = ("lib/libpkss.so.1",)
 
 
 def _load_ffi():
@@ -42,7 +43,7 @@ def _load_ffi():
     import cffi
 
     ffi = cffi.FFI()
-    ffi.cdef(_build.extract_cdef((root / "include" / "pkss.h").read_text(encoding="utf-8")))
+    ffi.cdef(_build.cdef_for(root / "include"))
     return ffi
 
 

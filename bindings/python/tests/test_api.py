@@ -19,7 +19,7 @@ import pytest
 import pkss
 from pkss import _build, _lib
 
-from conftest import FAST, LibSpy, apply, random_similarity, shape
+from conftest import FAST, HEADER, LibSpy, apply, random_similarity, shape
 
 
 # ------------------------------------------------------------ cdef / version
@@ -28,7 +28,7 @@ def test_bundled_cdef_matches_header(header_text):
     if not path.is_file():
         pytest.skip("not an installed package: the cdef was built from the header at import")
     bundled = path.read_text("utf-8")
-    assert bundled == _build.extract_cdef(header_text), (
+    assert bundled == _build.cdef_for(HEADER.parent), (
         "the cdef bundled in the installed package differs from include/pkss.h: "
         "reinstall with `pip install ./bindings/python`")
 
@@ -37,7 +37,7 @@ def test_bundled_ffi_matches_header(header_text):
     import cffi
 
     fresh = cffi.FFI()
-    fresh.cdef(_build.extract_cdef(header_text))
+    fresh.cdef(_build.cdef_for(HEADER.parent))
     for t in ("pkss_result", "pkss_candidate", "pkss_counts", "pkss_timings",
               "pkss_device_desc"):
         assert _lib.ffi.sizeof(t) == fresh.sizeof(t), t

@@ -9,12 +9,12 @@
 
 /* ----------------------------------------------------------------- KITTI */
 
-pkss_io_status io_read_kitti(io_ctx *ctx, double **xyz, size_t *n)
+pkss_status io_read_kitti(io_ctx *ctx, double **xyz, size_t *n)
 {
     size_t i, np;
     double *out;
     if (ctx->size % 16 != 0)
-        return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+        return io_fail(ctx, PKSS_ERR_FORMAT,
                        "KITTI: size %llu bytes is not a multiple of 16 (records "
                        "of float32 x y z intensity); truncated or not a KITTI "
                        ".bin",
@@ -22,7 +22,7 @@ pkss_io_status io_read_kitti(io_ctx *ctx, double **xyz, size_t *n)
     np = ctx->size / 16;
     out = io_alloc_points(ctx, np);
     if (!out)
-        return PKSS_IO_ERR_NOMEM;
+        return PKSS_ERR_OUT_OF_MEMORY;
     for (i = 0; i < np; i++) {
         const unsigned char *r = ctx->data + 16 * i;
         out[3 * i] = io_get_value(r, IO_T_F32, 0);
@@ -31,7 +31,7 @@ pkss_io_status io_read_kitti(io_ctx *ctx, double **xyz, size_t *n)
     }
     *xyz = out;
     *n = np;
-    return PKSS_IO_OK;
+    return PKSS_OK;
 }
 
 /* ------------------------------------------------------------------- VTK */
@@ -57,7 +57,7 @@ static io_type vtk_type(const char *t, size_t len)
     return IO_T_INVALID;
 }
 
-pkss_io_status io_read_vtk(io_ctx *ctx, double **xyz, size_t *n)
+pkss_status io_read_vtk(io_ctx *ctx, double **xyz, size_t *n)
 {
     io_cursor c;
     const char *line, *s, *e, *t;
@@ -71,20 +71,20 @@ pkss_io_status io_read_vtk(io_ctx *ctx, double **xyz, size_t *n)
     io_cursor_init(&c, ctx->data, ctx->size);
     if (!io_next_line(&c, &line, &len, &line_no) || len < 5 ||
         memcmp(line, "# vtk", 5) != 0)
-        return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+        return io_fail(ctx, PKSS_ERR_FORMAT,
                        "VTK: not a legacy VTK file (the first line is not "
                        "'# vtk DataFile Version x.x')");
     if (!io_next_line(&c, &line, &len, &line_no)) /* title */
-        return io_fail(ctx, PKSS_IO_ERR_FORMAT, "VTK: the file ends after "
+        return io_fail(ctx, PKSS_ERR_FORMAT, "VTK: the file ends after "
                        "line 1");
     if (!io_next_line(&c, &line, &len, &line_no))
-        return io_fail(ctx, PKSS_IO_ERR_FORMAT, "VTK: the file ends after "
+        return io_fail(ctx, PKSS_ERR_FORMAT, "VTK: the file ends after "
                        "line 2 (no ASCII/BINARY line)");
     s = line;
     e = line + len;
     if (!io_line_token(&s, e, 0, &t, &l) ||
         (!io_tok_eq(t, l, "ASCII") && !io_tok_eq(t, l, "BINARY")))
-        return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+        return io_fail(ctx, PKSS_ERR_FORMAT,
                        "VTK: line 3 must be ASCII or BINARY, not '%s'",
                        io_quote(line, len, q, sizeof q));
     binary = io_tok_eq(t, l, "BINARY");
@@ -92,7 +92,7 @@ pkss_io_status io_read_vtk(io_ctx *ctx, double **xyz, size_t *n)
     /* DATASET, then (DIMENSIONS etc.) until POINTS */
     for (;;) {
         if (!io_next_line(&c, &line, &len, &line_no))
-            return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+            return io_fail(ctx, PKSS_ERR_FORMAT,
                            "VTK: the file ends before %s",
                            have_dataset ? "the POINTS section"
                                         : "the DATASET line");
@@ -102,18 +102,18 @@ pkss_io_status io_read_vtk(io_ctx *ctx, double **xyz, size_t *n)
             continue;
         if (!have_dataset) {
             if (!io_tok_eq(t, l, "DATASET"))
-                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                return io_fail(ctx, PKSS_ERR_FORMAT,
                                "VTK: line %lu: expected DATASET, got '%s'",
                                (unsigned long)line_no,
                                io_quote(t, l, q, sizeof q));
             if (!io_line_token(&s, e, 0, &t, &l))
-                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                return io_fail(ctx, PKSS_ERR_FORMAT,
                                "VTK: line %lu: DATASET without a type",
                                (unsigned long)line_no);
             if (!io_tok_eq(t, l, "POLYDATA") &&
                 !io_tok_eq(t, l, "UNSTRUCTURED_GRID") &&
                 !io_tok_eq(t, l, "STRUCTURED_GRID"))
-                return io_fail(ctx, PKSS_IO_ERR_UNSUPPORTED,
+                return io_fail(ctx, PKSS_ERR_UNSUPPORTED_FORMAT,
                                "VTK: DATASET %s has no explicit POINTS "
                                "(supported: POLYDATA, UNSTRUCTURED_GRID, "
                                "STRUCTURED_GRID)",
@@ -126,11 +126,11 @@ pkss_io_status io_read_vtk(io_ctx *ctx, double **xyz, size_t *n)
         if (io_tok_eq(t, l, "POINTS"))
             break;
         if (io_tok_eq(t, l, "FIELD"))
-            return io_fail(ctx, PKSS_IO_ERR_UNSUPPORTED,
+            return io_fail(ctx, PKSS_ERR_UNSUPPORTED_FORMAT,
                            "VTK: line %lu: FIELD data before POINTS is not "
                            "supported",
                            (unsigned long)line_no);
-        return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+        return io_fail(ctx, PKSS_ERR_FORMAT,
                        "VTK: line %lu: expected POINTS, got '%s'",
                        (unsigned long)line_no, io_quote(t, l, q, sizeof q));
     }
@@ -138,12 +138,12 @@ pkss_io_status io_read_vtk(io_ctx *ctx, double **xyz, size_t *n)
     {
         int r;
         if (!io_line_token(&s, e, 0, &t, &l))
-            return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+            return io_fail(ctx, PKSS_ERR_FORMAT,
                            "VTK: line %lu: POINTS without a count",
                            (unsigned long)line_no);
         r = io_parse_u64(t, l, &np);
         if (r != 0)
-            return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+            return io_fail(ctx, PKSS_ERR_FORMAT,
                            "VTK: line %lu: POINTS count '%s' is %s",
                            (unsigned long)line_no, io_quote(t, l, q, sizeof q),
                            r == -2   ? "negative"
@@ -151,19 +151,19 @@ pkss_io_status io_read_vtk(io_ctx *ctx, double **xyz, size_t *n)
                                      : "not an integer");
         if (!io_line_token(&s, e, 0, &t, &l) ||
             (type = vtk_type(t, l)) == IO_T_INVALID)
-            return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+            return io_fail(ctx, PKSS_ERR_FORMAT,
                            "VTK: line %lu: POINTS needs a data type (float, "
                            "double, int, ...)",
                            (unsigned long)line_no);
     }
     if (np == 0)
-        return io_fail(ctx, PKSS_IO_ERR_EMPTY, "VTK: POINTS 0");
+        return io_fail(ctx, PKSS_ERR_EMPTY_INPUT, "VTK: POINTS 0");
     start = (size_t)(c.p - (const char *)ctx->data);
     left = ctx->size - start;
     if (binary) {
         if (io_mul_u64(np, 3 * io_type_size(type), &need) != 0 ||
             need > left)
-            return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+            return io_fail(ctx, PKSS_ERR_FORMAT,
                            "VTK: truncated at byte %llu: expected %llu points "
                            "(%lu bytes each), got %llu bytes of data",
                            (unsigned long long)ctx->size,
@@ -171,7 +171,7 @@ pkss_io_status io_read_vtk(io_ctx *ctx, double **xyz, size_t *n)
                            (unsigned long)(3 * io_type_size(type)),
                            (unsigned long long)left);
     } else if (io_mul_u64(np, 6, &need) != 0 || need > left + 1) {
-        return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+        return io_fail(ctx, PKSS_ERR_FORMAT,
                        "VTK: truncated at byte %llu: expected %llu points "
                        "(at least 6 bytes each in ASCII), got %llu bytes of "
                        "data",
@@ -180,7 +180,7 @@ pkss_io_status io_read_vtk(io_ctx *ctx, double **xyz, size_t *n)
     }
     out = io_alloc_points(ctx, np);
     if (!out)
-        return PKSS_IO_ERR_NOMEM;
+        return PKSS_ERR_OUT_OF_MEMORY;
     if (binary) {
         size_t ts = io_type_size(type);
         const unsigned char *b = ctx->data + start;
@@ -190,7 +190,7 @@ pkss_io_status io_read_vtk(io_ctx *ctx, double **xyz, size_t *n)
         for (i = 0; i < 3 * np; i++) {
             if (!io_next_token(&c, &t, &l)) {
                 free(out);
-                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                return io_fail(ctx, PKSS_ERR_FORMAT,
                                "VTK: truncated at byte %llu: expected %llu "
                                "points, got %llu",
                                (unsigned long long)ctx->size,
@@ -199,7 +199,7 @@ pkss_io_status io_read_vtk(io_ctx *ctx, double **xyz, size_t *n)
             }
             if (io_parse_double(t, l, &out[i]) != 0) {
                 free(out);
-                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                return io_fail(ctx, PKSS_ERR_FORMAT,
                                "VTK: line %lu: point %llu: '%s' is not a "
                                "number",
                                (unsigned long)c.line,
@@ -210,5 +210,5 @@ pkss_io_status io_read_vtk(io_ctx *ctx, double **xyz, size_t *n)
     }
     *xyz = out;
     *n = (size_t)np;
-    return PKSS_IO_OK;
+    return PKSS_OK;
 }

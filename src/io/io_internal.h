@@ -4,7 +4,7 @@
  * Every parser works on an in-memory buffer [data, data + size) that is NOT
  * NUL-terminated: all scanning is bounded by the end pointer, and numbers
  * are converted from a bounded copy of their token. Parsers report errors
- * through io_fail(); pkss_io_read() then prefixes the file name.
+ * through io_fail(); pkss_read_points() then prefixes the file name.
  */
 #ifndef PKSS_IO_INTERNAL_H
 #define PKSS_IO_INTERNAL_H
@@ -19,10 +19,11 @@ typedef struct io_ctx {
     size_t size;
     char *err;
     size_t err_size;
+    const char *array; /* NPZ: the member to read, or NULL */
 } io_ctx;
 
 /* Writes the formatted message into ctx->err and returns status. */
-pkss_io_status io_fail(io_ctx *ctx, pkss_io_status status, const char *fmt,
+pkss_status io_fail(io_ctx *ctx, pkss_status status, const char *fmt,
                        ...)
 #if defined(__GNUC__)
     __attribute__((format(printf, 3, 4)))
@@ -90,12 +91,25 @@ double *io_alloc_points(io_ctx *ctx, uint64_t n);
 /* ------------------------------------------------------------- parsers */
 /* Each sets *xyz (malloc'd) and *n on success; on failure *xyz stays NULL.
  * size > 0 is guaranteed by the caller. */
-pkss_io_status io_read_ply(io_ctx *ctx, double **xyz, size_t *n);
-pkss_io_status io_read_pcd(io_ctx *ctx, double **xyz, size_t *n);
-pkss_io_status io_read_xyz(io_ctx *ctx, double **xyz, size_t *n);
-pkss_io_status io_read_off(io_ctx *ctx, double **xyz, size_t *n);
-pkss_io_status io_read_kitti(io_ctx *ctx, double **xyz, size_t *n);
-pkss_io_status io_read_vtk(io_ctx *ctx, double **xyz, size_t *n);
+pkss_status io_read_ply(io_ctx *ctx, double **xyz, size_t *n);
+pkss_status io_read_pcd(io_ctx *ctx, double **xyz, size_t *n);
+pkss_status io_read_xyz(io_ctx *ctx, double **xyz, size_t *n);
+pkss_status io_read_off(io_ctx *ctx, double **xyz, size_t *n);
+pkss_status io_read_kitti(io_ctx *ctx, double **xyz, size_t *n);
+pkss_status io_read_vtk(io_ctx *ctx, double **xyz, size_t *n);
+pkss_status io_read_npy(io_ctx *ctx, double **xyz, size_t *n);
+pkss_status io_read_npz(io_ctx *ctx, double **xyz, size_t *n);
+
+/* 1 for the formats that are binary from their first byte (no BOM rule). */
+int io_format_is_binary(pkss_format f);
+
+/* LZF decompression as used by PCD binary_compressed (liblzf format),
+ * bounds-checked. @return the bytes written to out, or 0 on corrupt input
+ * or if out_len is too small; *bad_at receives the input offset where
+ * decoding failed. */
+size_t pkss__io_lzf_decompress(const unsigned char *in, size_t in_len,
+                               unsigned char *out, size_t out_len,
+                               size_t *bad_at);
 
 
 #endif

@@ -49,28 +49,28 @@ static io_type pcd_type(char t, uint64_t size)
 }
 
 /* Parses one unsigned header value; reports errors with the key name. */
-static pkss_io_status pcd_u64(io_ctx *ctx, const char *key, size_t line_no,
+static pkss_status pcd_u64(io_ctx *ctx, const char *key, size_t line_no,
                               const char *t, size_t tl, uint64_t *out)
 {
     char q[64];
     int r = io_parse_u64(t, tl, out);
     if (r == 0)
-        return PKSS_IO_OK;
-    return io_fail(ctx, PKSS_IO_ERR_FORMAT, "PCD: header line %lu: %s value "
+        return PKSS_OK;
+    return io_fail(ctx, PKSS_ERR_FORMAT, "PCD: header line %lu: %s value "
                    "'%s' is %s", (unsigned long)line_no, key,
                    io_quote(t, tl, q, sizeof q),
                    r == -2 ? "negative" : r == -3 ? "too large"
                                                   : "not an integer");
 }
 
-static pkss_io_status pcd_parse_header(io_ctx *ctx, pcd_header *h,
+static pkss_status pcd_parse_header(io_ctx *ctx, pcd_header *h,
                                        size_t *data_start)
 {
     io_cursor c;
     const char *line, *t;
     size_t len, tl, line_no, cap = 0;
     char q[64];
-    pkss_io_status st;
+    pkss_status st;
 
     memset(h, 0, sizeof *h);
     h->data = -1;
@@ -85,19 +85,19 @@ static pkss_io_status pcd_parse_header(io_ctx *ctx, pcd_header *h,
             continue;
         if (io_tok_eq(key, klen, "FIELDS") || io_tok_eq(key, klen, "COLUMNS")) {
             if (h->n_fields)
-                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                return io_fail(ctx, PKSS_ERR_FORMAT,
                                "PCD: header line %lu: FIELDS given twice",
                                (unsigned long)line_no);
             while (io_line_token(&s, e, 0, &t, &tl)) {
                 pcd_field *f;
                 if (h->n_fields >= PCD_MAX_FIELDS)
-                    return io_fail(ctx, PKSS_IO_ERR_UNSUPPORTED,
+                    return io_fail(ctx, PKSS_ERR_UNSUPPORTED_FORMAT,
                                    "PCD: more than %d fields", PCD_MAX_FIELDS);
                 if (h->n_fields == cap) {
                     size_t nc = cap ? 2 * cap : 8;
                     pcd_field *nf = (pcd_field *)realloc(h->f, nc * sizeof *nf);
                     if (!nf)
-                        return io_fail(ctx, PKSS_IO_ERR_NOMEM,
+                        return io_fail(ctx, PKSS_ERR_OUT_OF_MEMORY,
                                        "PCD: out of memory in the header");
                     h->f = nf;
                     cap = nc;
@@ -110,7 +110,7 @@ static pkss_io_status pcd_parse_header(io_ctx *ctx, pcd_header *h,
                 f->count = 1;
             }
             if (h->n_fields == 0)
-                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                return io_fail(ctx, PKSS_ERR_FORMAT,
                                "PCD: header line %lu: FIELDS lists no field",
                                (unsigned long)line_no);
             continue;
@@ -122,20 +122,20 @@ static pkss_io_status pcd_parse_header(io_ctx *ctx, pcd_header *h,
                                                        : 2;
             static const char *names[] = {"SIZE", "TYPE", "COUNT"};
             if (h->n_fields == 0)
-                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                return io_fail(ctx, PKSS_ERR_FORMAT,
                                "PCD: header line %lu: %s before FIELDS",
                                (unsigned long)line_no, names[which]);
             for (i = 0; io_line_token(&s, e, 0, &t, &tl); i++) {
                 uint64_t v = 0;
                 if (i >= h->n_fields)
-                    return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                    return io_fail(ctx, PKSS_ERR_FORMAT,
                                    "PCD: header line %lu: %s has more values "
                                    "than FIELDS has names (%lu)",
                                    (unsigned long)line_no, names[which],
                                    (unsigned long)h->n_fields);
                 if (which == 1) {
                     if (tl != 1 || !strchr("FIUfiu", t[0]))
-                        return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                        return io_fail(ctx, PKSS_ERR_FORMAT,
                                        "PCD: header line %lu: TYPE '%s' is "
                                        "not F, I or U",
                                        (unsigned long)line_no,
@@ -144,11 +144,11 @@ static pkss_io_status pcd_parse_header(io_ctx *ctx, pcd_header *h,
                     continue;
                 }
                 st = pcd_u64(ctx, names[which], line_no, t, tl, &v);
-                if (st != PKSS_IO_OK)
+                if (st != PKSS_OK)
                     return st;
                 if (which == 0) {
                     if (v != 1 && v != 2 && v != 4 && v != 8)
-                        return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                        return io_fail(ctx, PKSS_ERR_FORMAT,
                                        "PCD: header line %lu: SIZE %llu is "
                                        "not 1, 2, 4 or 8",
                                        (unsigned long)line_no,
@@ -156,7 +156,7 @@ static pkss_io_status pcd_parse_header(io_ctx *ctx, pcd_header *h,
                     h->f[i].size = v;
                 } else {
                     if (v == 0 || v > 1000000)
-                        return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                        return io_fail(ctx, PKSS_ERR_FORMAT,
                                        "PCD: header line %lu: COUNT %llu "
                                        "out of range 1..1000000",
                                        (unsigned long)line_no,
@@ -165,7 +165,7 @@ static pkss_io_status pcd_parse_header(io_ctx *ctx, pcd_header *h,
                 }
             }
             if (i != h->n_fields)
-                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                return io_fail(ctx, PKSS_ERR_FORMAT,
                                "PCD: header line %lu: %s has %lu values for "
                                "%lu fields",
                                (unsigned long)line_no, names[which],
@@ -179,14 +179,14 @@ static pkss_io_status pcd_parse_header(io_ctx *ctx, pcd_header *h,
             io_tok_eq(key, klen, "POINTS")) {
             uint64_t v;
             if (!io_line_token(&s, e, 0, &t, &tl))
-                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                return io_fail(ctx, PKSS_ERR_FORMAT,
                                "PCD: header line %lu: key without a value",
                                (unsigned long)line_no);
             st = pcd_u64(ctx, io_tok_eq(key, klen, "WIDTH")    ? "WIDTH"
                               : io_tok_eq(key, klen, "HEIGHT") ? "HEIGHT"
                                                                : "POINTS",
                          line_no, t, tl, &v);
-            if (st != PKSS_IO_OK)
+            if (st != PKSS_OK)
                 return st;
             if (io_tok_eq(key, klen, "WIDTH")) {
                 h->width = v;
@@ -202,7 +202,7 @@ static pkss_io_status pcd_parse_header(io_ctx *ctx, pcd_header *h,
         }
         if (io_tok_eq(key, klen, "DATA")) {
             if (!io_line_token(&s, e, 0, &t, &tl))
-                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                return io_fail(ctx, PKSS_ERR_FORMAT,
                                "PCD: header line %lu: DATA without a value",
                                (unsigned long)line_no);
             if (io_tok_eq(t, tl, "ascii"))
@@ -212,27 +212,27 @@ static pkss_io_status pcd_parse_header(io_ctx *ctx, pcd_header *h,
             else if (io_tok_eq(t, tl, "binary_compressed"))
                 h->data = 2;
             else
-                return io_fail(ctx, PKSS_IO_ERR_UNSUPPORTED,
+                return io_fail(ctx, PKSS_ERR_UNSUPPORTED_FORMAT,
                                "PCD: header line %lu: unknown DATA kind '%s' "
                                "(ascii, binary, binary_compressed)",
                                (unsigned long)line_no,
                                io_quote(t, tl, q, sizeof q));
             *data_start = (size_t)(c.p - (const char *)ctx->data);
-            return PKSS_IO_OK;
+            return PKSS_OK;
         }
-        return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+        return io_fail(ctx, PKSS_ERR_FORMAT,
                        "PCD: header line %lu: unknown key '%s'",
                        (unsigned long)line_no, io_quote(key, klen, q, sizeof q));
     }
-    return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+    return io_fail(ctx, PKSS_ERR_FORMAT,
                    "PCD: no DATA line: not a PCD file or a truncated header");
 }
 
-pkss_io_status io_read_pcd(io_ctx *ctx, double **xyz, size_t *n)
+pkss_status io_read_pcd(io_ctx *ctx, double **xyz, size_t *n)
 {
     pcd_header h;
     size_t start = 0, i;
-    pkss_io_status st;
+    pkss_status st;
     int fx = -1, fy = -1, fz = -1;
     uint64_t point_size = 0, tokens = 0, left, need, np;
     uint64_t off[3] = {0, 0, 0}; /* byte offset (AoS) or token index */
@@ -241,14 +241,14 @@ pkss_io_status io_read_pcd(io_ctx *ctx, double **xyz, size_t *n)
     io_cursor ac; /* ascii data; still used after the last point */
 
     st = pcd_parse_header(ctx, &h, &start);
-    if (st != PKSS_IO_OK)
+    if (st != PKSS_OK)
         goto done;
     if (h.n_fields == 0) {
-        st = io_fail(ctx, PKSS_IO_ERR_FORMAT, "PCD: the header has no FIELDS");
+        st = io_fail(ctx, PKSS_ERR_FORMAT, "PCD: the header has no FIELDS");
         goto done;
     }
     if (h.data != 0 && (!h.have_size || !h.have_type)) {
-        st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
+        st = io_fail(ctx, PKSS_ERR_FORMAT,
                      "PCD: binary data needs SIZE and TYPE header lines");
         goto done;
     }
@@ -258,7 +258,7 @@ pkss_io_status io_read_pcd(io_ctx *ctx, double **xyz, size_t *n)
         if (h.have_type) {
             f->type = pcd_type(f->type_char, f->size);
             if (f->type == IO_T_INVALID) {
-                st = io_fail(ctx, PKSS_IO_ERR_UNSUPPORTED,
+                st = io_fail(ctx, PKSS_ERR_UNSUPPORTED_FORMAT,
                              "PCD: field '%s' has an unsupported TYPE/SIZE "
                              "pair (F needs 4 or 8)",
                              f->name);
@@ -274,19 +274,19 @@ pkss_io_status io_read_pcd(io_ctx *ctx, double **xyz, size_t *n)
         if (strcmp(f->name, "z") == 0 && fz < 0) fz = (int)i;
         if (io_mul_u64(f->size, f->count, &bytes) != 0 ||
             point_size + bytes < point_size) {
-            st = io_fail(ctx, PKSS_IO_ERR_FORMAT, "PCD: point size overflows");
+            st = io_fail(ctx, PKSS_ERR_FORMAT, "PCD: point size overflows");
             goto done;
         }
         point_size += bytes;
         tokens += f->count;
     }
     if (fx < 0 || fy < 0 || fz < 0) {
-        st = io_fail(ctx, PKSS_IO_ERR_FORMAT, "PCD: no field '%s' in FIELDS",
+        st = io_fail(ctx, PKSS_ERR_FORMAT, "PCD: no field '%s' in FIELDS",
                      fx < 0 ? "x" : fy < 0 ? "y" : "z");
         goto done;
     }
     if (h.f[fx].count != 1 || h.f[fy].count != 1 || h.f[fz].count != 1) {
-        st = io_fail(ctx, PKSS_IO_ERR_UNSUPPORTED,
+        st = io_fail(ctx, PKSS_ERR_UNSUPPORTED_FORMAT,
                      "PCD: x, y and z must have COUNT 1");
         goto done;
     }
@@ -296,7 +296,7 @@ pkss_io_status io_read_pcd(io_ctx *ctx, double **xyz, size_t *n)
         if (!h.have_height)
             h.height = 1;
         if (io_mul_u64(h.width, h.height, &wh) != 0) {
-            st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
+            st = io_fail(ctx, PKSS_ERR_FORMAT,
                          "PCD: WIDTH x HEIGHT overflows");
             goto done;
         }
@@ -304,20 +304,20 @@ pkss_io_status io_read_pcd(io_ctx *ctx, double **xyz, size_t *n)
             h.points = wh;
             h.have_points = 1;
         } else if (h.points != wh) {
-            st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
+            st = io_fail(ctx, PKSS_ERR_FORMAT,
                          "PCD: POINTS %llu differs from WIDTH x HEIGHT = %llu",
                          (unsigned long long)h.points, (unsigned long long)wh);
             goto done;
         }
     }
     if (!h.have_points) {
-        st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
+        st = io_fail(ctx, PKSS_ERR_FORMAT,
                      "PCD: the header gives neither POINTS nor WIDTH");
         goto done;
     }
     np = h.points;
     if (np == 0) {
-        st = io_fail(ctx, PKSS_IO_ERR_EMPTY, "PCD: the header says 0 points");
+        st = io_fail(ctx, PKSS_ERR_EMPTY_INPUT, "PCD: the header says 0 points");
         goto done;
     }
     left = ctx->size - start;
@@ -334,7 +334,7 @@ pkss_io_status io_read_pcd(io_ctx *ctx, double **xyz, size_t *n)
             ti += h.f[i].count;
         }
         if (io_mul_u64(np, 2 * tokens, &need) != 0 || need > left + 1) {
-            st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
+            st = io_fail(ctx, PKSS_ERR_FORMAT,
                          "PCD: truncated at byte %llu: expected %llu points "
                          "of %llu values, got only %llu bytes of data",
                          (unsigned long long)ctx->size,
@@ -344,7 +344,7 @@ pkss_io_status io_read_pcd(io_ctx *ctx, double **xyz, size_t *n)
         }
         out = io_alloc_points(ctx, np);
         if (!out) {
-            st = PKSS_IO_ERR_NOMEM;
+            st = PKSS_ERR_OUT_OF_MEMORY;
             goto done;
         }
         io_cursor_init(&ac, ctx->data, ctx->size);
@@ -356,7 +356,7 @@ pkss_io_status io_read_pcd(io_ctx *ctx, double **xyz, size_t *n)
                 int axis = k == off[0] ? 0 : k == off[1] ? 1 : k == off[2] ? 2
                                                                             : -1;
                 if (!io_next_token(&ac, &t, &tl)) {
-                    st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                    st = io_fail(ctx, PKSS_ERR_FORMAT,
                                  "PCD: truncated at byte %llu: expected %llu "
                                  "points, got %llu",
                                  (unsigned long long)ctx->size,
@@ -365,7 +365,7 @@ pkss_io_status io_read_pcd(io_ctx *ctx, double **xyz, size_t *n)
                     goto done;
                 }
                 if (axis >= 0 && io_parse_double(t, tl, &out[3 * p + axis])) {
-                    st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                    st = io_fail(ctx, PKSS_ERR_FORMAT,
                                  "PCD: line %lu: point %llu: '%s' is not a "
                                  "number",
                                  (unsigned long)ac.line, (unsigned long long)p,
@@ -380,7 +380,7 @@ pkss_io_status io_read_pcd(io_ctx *ctx, double **xyz, size_t *n)
         uint64_t stride[3], start3[3];
         int fi[3];
         if (io_mul_u64(np, point_size, &total) != 0) {
-            st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
+            st = io_fail(ctx, PKSS_ERR_FORMAT,
                          "PCD: header says %llu points of %llu bytes: size "
                          "overflows",
                          (unsigned long long)np,
@@ -389,7 +389,7 @@ pkss_io_status io_read_pcd(io_ctx *ctx, double **xyz, size_t *n)
         }
         if (h.data == 1) {
             if (total > left) {
-                st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                st = io_fail(ctx, PKSS_ERR_FORMAT,
                              "PCD: truncated at byte %llu: expected %llu "
                              "points of %llu bytes, got %llu (%llu bytes of "
                              "data)",
@@ -405,7 +405,7 @@ pkss_io_status io_read_pcd(io_ctx *ctx, double **xyz, size_t *n)
             uint64_t csize, usize;
             size_t got, bad = 0;
             if (left < 8) {
-                st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                st = io_fail(ctx, PKSS_ERR_FORMAT,
                              "PCD: binary_compressed data lacks its 8-byte "
                              "size header");
                 goto done;
@@ -413,7 +413,7 @@ pkss_io_status io_read_pcd(io_ctx *ctx, double **xyz, size_t *n)
             csize = (uint64_t)io_get_value(ctx->data + start, IO_T_U32, 0);
             usize = (uint64_t)io_get_value(ctx->data + start + 4, IO_T_U32, 0);
             if (csize > left - 8) {
-                st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                st = io_fail(ctx, PKSS_ERR_FORMAT,
                              "PCD: compressed size %llu but only %llu bytes "
                              "follow",
                              (unsigned long long)csize,
@@ -421,7 +421,7 @@ pkss_io_status io_read_pcd(io_ctx *ctx, double **xyz, size_t *n)
                 goto done;
             }
             if (usize != total) {
-                st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                st = io_fail(ctx, PKSS_ERR_FORMAT,
                              "PCD: uncompressed size %llu differs from "
                              "POINTS x point size = %llu",
                              (unsigned long long)usize,
@@ -430,7 +430,7 @@ pkss_io_status io_read_pcd(io_ctx *ctx, double **xyz, size_t *n)
             }
             /* One LZF back-reference (3 bytes) yields at most 264 bytes. */
             if (usize / 88 > csize + 1) {
-                st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                st = io_fail(ctx, PKSS_ERR_FORMAT,
                              "PCD: %llu compressed bytes cannot hold %llu "
                              "bytes of LZF data (header lies)",
                              (unsigned long long)csize,
@@ -439,15 +439,15 @@ pkss_io_status io_read_pcd(io_ctx *ctx, double **xyz, size_t *n)
             }
             raw = (unsigned char *)malloc(usize ? (size_t)usize : 1);
             if (!raw) {
-                st = io_fail(ctx, PKSS_IO_ERR_NOMEM,
+                st = io_fail(ctx, PKSS_ERR_OUT_OF_MEMORY,
                              "PCD: out of memory for %llu bytes",
                              (unsigned long long)usize);
                 goto done;
             }
-            got = pkss_io_lzf_decompress(ctx->data + start + 8, (size_t)csize, raw,
+            got = pkss__io_lzf_decompress(ctx->data + start + 8, (size_t)csize, raw,
                                     (size_t)usize, &bad);
             if (got != usize) {
-                st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                st = io_fail(ctx, PKSS_ERR_FORMAT,
                              "PCD: corrupt LZF data (decoding failed at "
                              "compressed byte %lu, %lu of %llu bytes out)",
                              (unsigned long)bad, (unsigned long)got,
@@ -474,7 +474,7 @@ pkss_io_status io_read_pcd(io_ctx *ctx, double **xyz, size_t *n)
         }
         out = io_alloc_points(ctx, np);
         if (!out) {
-            st = PKSS_IO_ERR_NOMEM;
+            st = PKSS_ERR_OUT_OF_MEMORY;
             goto done;
         }
         for (p = 0; p < np; p++)
@@ -488,7 +488,7 @@ pkss_io_status io_read_pcd(io_ctx *ctx, double **xyz, size_t *n)
         const char *t;
         size_t tl;
         if (io_next_token(&ac, &t, &tl)) {
-            st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
+            st = io_fail(ctx, PKSS_ERR_FORMAT,
                          "PCD: data after the %llu points the header "
                          "declares (byte %llu)",
                          (unsigned long long)np,
@@ -496,7 +496,7 @@ pkss_io_status io_read_pcd(io_ctx *ctx, double **xyz, size_t *n)
             goto done;
         }
     } else if (h.data == 1 && np * point_size < left) {
-        st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
+        st = io_fail(ctx, PKSS_ERR_FORMAT,
                      "PCD: data after the %llu points the header declares "
                      "(byte %llu, %llu bytes more)",
                      (unsigned long long)np,
@@ -507,7 +507,7 @@ pkss_io_status io_read_pcd(io_ctx *ctx, double **xyz, size_t *n)
     *xyz = out;
     *n = (size_t)np;
     out = NULL;
-    st = PKSS_IO_OK;
+    st = PKSS_OK;
 done:
     free(out);
     free(raw);
@@ -516,7 +516,7 @@ done:
 }
 
 /* LZF decoder (format of liblzf's lzf_d.c, used by PCL), bounds-checked. */
-size_t pkss_io_lzf_decompress(const unsigned char *in, size_t in_len,
+size_t pkss__io_lzf_decompress(const unsigned char *in, size_t in_len,
                          unsigned char *out, size_t out_len, size_t *bad_at)
 {
     size_t ip = 0, op = 0;

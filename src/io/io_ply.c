@@ -68,7 +68,7 @@ static void ply_free(ply_header *h)
 
 /* Parses the header; *data_start receives the offset of the first data
  * byte. */
-static pkss_io_status ply_parse_header(io_ctx *ctx, ply_header *h,
+static pkss_status ply_parse_header(io_ctx *ctx, ply_header *h,
                                        size_t *data_start)
 {
     io_cursor c;
@@ -83,7 +83,7 @@ static pkss_io_status ply_parse_header(io_ctx *ctx, ply_header *h,
     io_cursor_init(&c, ctx->data, ctx->size);
     if (!io_next_line(&c, &line, &len, &line_no) || len != 3 ||
         memcmp(line, "ply", 3) != 0)
-        return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+        return io_fail(ctx, PKSS_ERR_FORMAT,
                        "PLY: not a PLY file (the first line is not 'ply')");
 
     while (io_next_line(&c, &line, &len, &line_no)) {
@@ -98,14 +98,14 @@ static pkss_io_status ply_parse_header(io_ctx *ctx, ply_header *h,
             continue;
         if (io_tok_eq(tok[0], tlen[0], "end_header")) {
             if (!have_format)
-                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                return io_fail(ctx, PKSS_ERR_FORMAT,
                                "PLY: the header has no 'format' line");
             *data_start = (size_t)(c.p - (const char *)ctx->data);
-            return PKSS_IO_OK;
+            return PKSS_OK;
         }
         if (io_tok_eq(tok[0], tlen[0], "format")) {
             if (nt < 2)
-                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                return io_fail(ctx, PKSS_ERR_FORMAT,
                                "PLY: header line %lu: 'format' without a value",
                                (unsigned long)line_no);
             if (io_tok_eq(tok[1], tlen[1], "ascii"))
@@ -115,7 +115,7 @@ static pkss_io_status ply_parse_header(io_ctx *ctx, ply_header *h,
             else if (io_tok_eq(tok[1], tlen[1], "binary_big_endian"))
                 h->format = 2;
             else
-                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                return io_fail(ctx, PKSS_ERR_FORMAT,
                                "PLY: header line %lu: unknown format '%s' "
                                "(ascii, binary_little_endian or "
                                "binary_big_endian)",
@@ -127,32 +127,32 @@ static pkss_io_status ply_parse_header(io_ctx *ctx, ply_header *h,
             uint64_t cnt;
             int r;
             if (nt != 3)
-                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                return io_fail(ctx, PKSS_ERR_FORMAT,
                                "PLY: header line %lu: expected 'element NAME "
                                "COUNT'",
                                (unsigned long)line_no);
             r = io_parse_u64(tok[2], tlen[2], &cnt);
             if (r == -2)
-                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                return io_fail(ctx, PKSS_ERR_FORMAT,
                                "PLY: header line %lu: negative count %s for "
                                "element '%s'",
                                (unsigned long)line_no,
                                io_quote(tok[2], tlen[2], q, sizeof q),
                                io_quote(tok[1], tlen[1], q2, sizeof q2));
             if (r == -3)
-                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                return io_fail(ctx, PKSS_ERR_FORMAT,
                                "PLY: header line %lu: element count %s "
                                "overflows 64 bits",
                                (unsigned long)line_no,
                                io_quote(tok[2], tlen[2], q, sizeof q));
             if (r != 0)
-                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                return io_fail(ctx, PKSS_ERR_FORMAT,
                                "PLY: header line %lu: element count '%s' is "
                                "not an integer",
                                (unsigned long)line_no,
                                io_quote(tok[2], tlen[2], q, sizeof q));
             if (h->n_el >= PLY_MAX_ELEMENTS)
-                return io_fail(ctx, PKSS_IO_ERR_UNSUPPORTED,
+                return io_fail(ctx, PKSS_ERR_UNSUPPORTED_FORMAT,
                                "PLY: more than %d elements",
                                PLY_MAX_ELEMENTS);
             if (h->n_el == cap_el) {
@@ -160,7 +160,7 @@ static pkss_io_status ply_parse_header(io_ctx *ctx, ply_header *h,
                 ply_element *ne =
                     (ply_element *)realloc(h->el, nc * sizeof *ne);
                 if (!ne)
-                    return io_fail(ctx, PKSS_IO_ERR_NOMEM,
+                    return io_fail(ctx, PKSS_ERR_OUT_OF_MEMORY,
                                    "PLY: out of memory in the header");
                 h->el = ne;
                 cap_el = nc;
@@ -176,28 +176,28 @@ static pkss_io_status ply_parse_header(io_ctx *ctx, ply_header *h,
             const char *name;
             size_t nlen;
             if (h->n_el == 0)
-                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                return io_fail(ctx, PKSS_ERR_FORMAT,
                                "PLY: header line %lu: 'property' before any "
                                "'element'",
                                (unsigned long)line_no);
             el = &h->el[h->n_el - 1];
             if (nt >= 2 && io_tok_eq(tok[1], tlen[1], "list")) {
                 if (nt != 5)
-                    return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                    return io_fail(ctx, PKSS_ERR_FORMAT,
                                    "PLY: header line %lu: expected 'property "
                                    "list COUNT_TYPE ITEM_TYPE NAME'",
                                    (unsigned long)line_no);
                 p.count_type = ply_type(tok[2], tlen[2]);
                 p.type = ply_type(tok[3], tlen[3]);
                 if (p.count_type == IO_T_INVALID || p.type == IO_T_INVALID)
-                    return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                    return io_fail(ctx, PKSS_ERR_FORMAT,
                                    "PLY: header line %lu: unknown type '%s'",
                                    (unsigned long)line_no,
                                    p.count_type == IO_T_INVALID
                                        ? io_quote(tok[2], tlen[2], q, sizeof q)
                                        : io_quote(tok[3], tlen[3], q, sizeof q));
                 if (!io_type_is_integer(p.count_type))
-                    return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                    return io_fail(ctx, PKSS_ERR_FORMAT,
                                    "PLY: header line %lu: list count type "
                                    "must be an integer type",
                                    (unsigned long)line_no);
@@ -205,14 +205,14 @@ static pkss_io_status ply_parse_header(io_ctx *ctx, ply_header *h,
                 nlen = tlen[4];
             } else {
                 if (nt != 3)
-                    return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                    return io_fail(ctx, PKSS_ERR_FORMAT,
                                    "PLY: header line %lu: expected 'property "
                                    "TYPE NAME'",
                                    (unsigned long)line_no);
                 p.count_type = IO_T_INVALID;
                 p.type = ply_type(tok[1], tlen[1]);
                 if (p.type == IO_T_INVALID)
-                    return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                    return io_fail(ctx, PKSS_ERR_FORMAT,
                                    "PLY: header line %lu: unknown property "
                                    "type '%s'",
                                    (unsigned long)line_no,
@@ -221,14 +221,14 @@ static pkss_io_status ply_parse_header(io_ctx *ctx, ply_header *h,
                 nlen = tlen[2];
             }
             if (el->n_props >= PLY_MAX_PROPS)
-                return io_fail(ctx, PKSS_IO_ERR_UNSUPPORTED,
+                return io_fail(ctx, PKSS_ERR_UNSUPPORTED_FORMAT,
                                "PLY: more than %d properties in element '%s'",
                                PLY_MAX_PROPS, el->name);
             if (el->n_props == el->cap_props) {
                 size_t nc = el->cap_props ? 2 * el->cap_props : 8;
                 ply_prop *np = (ply_prop *)realloc(el->props, nc * sizeof *np);
                 if (!np)
-                    return io_fail(ctx, PKSS_IO_ERR_NOMEM,
+                    return io_fail(ctx, PKSS_ERR_OUT_OF_MEMORY,
                                    "PLY: out of memory in the header");
                 el->props = np;
                 el->cap_props = nc;
@@ -239,7 +239,7 @@ static pkss_io_status ply_parse_header(io_ctx *ctx, ply_header *h,
                             : name[0] == 'y' ? &el->iy
                                              : &el->iz;
                 if (*slot >= 0)
-                    return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                    return io_fail(ctx, PKSS_ERR_FORMAT,
                                    "PLY: header line %lu: element '%s' has a "
                                    "second property '%c'",
                                    (unsigned long)line_no, el->name, name[0]);
@@ -249,13 +249,13 @@ static pkss_io_status ply_parse_header(io_ctx *ctx, ply_header *h,
             }
             el->props[el->n_props++] = p;
         } else {
-            return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+            return io_fail(ctx, PKSS_ERR_FORMAT,
                            "PLY: header line %lu: unknown keyword '%s'",
                            (unsigned long)line_no,
                            io_quote(tok[0], tlen[0], q, sizeof q));
         }
     }
-    return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+    return io_fail(ctx, PKSS_ERR_FORMAT,
                    "PLY: the header has no 'end_header' line (file ends at "
                    "line %lu)",
                    (unsigned long)c.line);
@@ -289,16 +289,16 @@ static int row_is_fixed(const ply_element *el)
 
 /* ------------------------------------------------------------- binary */
 
-static pkss_io_status skip_binary(io_ctx *ctx, const ply_element *el,
+static pkss_status skip_binary(io_ctx *ctx, const ply_element *el,
                                   int be, size_t *pos)
 {
     const size_t size = ctx->size;
     uint64_t r, rmin = row_min_bytes(el, 0), need;
     size_t i;
     if (el->n_props == 0 || el->count == 0)
-        return PKSS_IO_OK;
+        return PKSS_OK;
     if (io_mul_u64(el->count, rmin, &need) != 0 || need > size - *pos)
-        return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+        return io_fail(ctx, PKSS_ERR_FORMAT,
                        "PLY: header says %llu '%s' elements (at least %llu "
                        "bytes each) but only %llu bytes are left at offset "
                        "%llu",
@@ -308,7 +308,7 @@ static pkss_io_status skip_binary(io_ctx *ctx, const ply_element *el,
                        (unsigned long long)*pos);
     if (row_is_fixed(el)) {
         *pos += (size_t)need;
-        return PKSS_IO_OK;
+        return PKSS_OK;
     }
     for (r = 0; r < el->count; r++) {
         for (i = 0; i < el->n_props; i++) {
@@ -324,14 +324,14 @@ static pkss_io_status skip_binary(io_ctx *ctx, const ply_element *el,
                 if (size - *pos < cs)
                     goto truncated;
                 if (io_get_count(ctx->data + *pos, p->count_type, be, &k) != 0)
-                    return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                    return io_fail(ctx, PKSS_ERR_FORMAT,
                                    "PLY: negative list length in element "
                                    "'%s' row %llu (offset %llu)",
                                    el->name, (unsigned long long)r,
                                    (unsigned long long)*pos);
                 *pos += cs;
                 if (io_mul_u64(k, ts, &kb) != 0 || kb > size - *pos)
-                    return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                    return io_fail(ctx, PKSS_ERR_FORMAT,
                                    "PLY: list of %llu items in element '%s' "
                                    "row %llu runs past the end of the file",
                                    (unsigned long long)k, el->name,
@@ -340,9 +340,9 @@ static pkss_io_status skip_binary(io_ctx *ctx, const ply_element *el,
             }
         }
     }
-    return PKSS_IO_OK;
+    return PKSS_OK;
 truncated:
-    return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+    return io_fail(ctx, PKSS_ERR_FORMAT,
                    "PLY: truncated at byte %llu: expected %llu '%s' rows, "
                    "got %llu",
                    (unsigned long long)ctx->size,
@@ -350,7 +350,7 @@ truncated:
                    (unsigned long long)r);
 }
 
-static pkss_io_status read_binary_vertices(io_ctx *ctx,
+static pkss_status read_binary_vertices(io_ctx *ctx,
                                            const ply_element *el, int be,
                                            size_t pos, double *out)
 {
@@ -377,7 +377,7 @@ static pkss_io_status read_binary_vertices(io_ctx *ctx,
                 if (size - pos < cs)
                     goto truncated;
                 if (io_get_count(ctx->data + pos, p->count_type, be, &k) != 0)
-                    return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                    return io_fail(ctx, PKSS_ERR_FORMAT,
                                    "PLY: negative list length in vertex %llu",
                                    (unsigned long long)r);
                 pos += cs;
@@ -387,9 +387,9 @@ static pkss_io_status read_binary_vertices(io_ctx *ctx,
             }
         }
     }
-    return PKSS_IO_OK;
+    return PKSS_OK;
 truncated:
-    return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+    return io_fail(ctx, PKSS_ERR_FORMAT,
                    "PLY: truncated at byte %llu: expected %llu vertices, got "
                    "%llu",
                    (unsigned long long)ctx->size,
@@ -398,10 +398,10 @@ truncated:
 
 /* -------------------------------------------------------------- ascii */
 
-static pkss_io_status ascii_end(io_ctx *ctx, const ply_element *el,
+static pkss_status ascii_end(io_ctx *ctx, const ply_element *el,
                                 uint64_t r, const io_cursor *c)
 {
-    return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+    return io_fail(ctx, PKSS_ERR_FORMAT,
                    "PLY: truncated at byte %llu (line %lu): expected %llu "
                    "'%s' rows, got %llu",
                    (unsigned long long)ctx->size, (unsigned long)c->line,
@@ -409,7 +409,7 @@ static pkss_io_status ascii_end(io_ctx *ctx, const ply_element *el,
                    (unsigned long long)r);
 }
 
-static pkss_io_status ascii_list_len(io_ctx *ctx, const ply_element *el,
+static pkss_status ascii_list_len(io_ctx *ctx, const ply_element *el,
                                      uint64_t r, io_cursor *c, uint64_t *k)
 {
     const char *t;
@@ -418,15 +418,15 @@ static pkss_io_status ascii_list_len(io_ctx *ctx, const ply_element *el,
     if (!io_next_token(c, &t, &tl))
         return ascii_end(ctx, el, r, c);
     if (io_parse_u64(t, tl, k) != 0)
-        return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+        return io_fail(ctx, PKSS_ERR_FORMAT,
                        "PLY: line %lu: list length '%s' in element '%s' is "
                        "not a non-negative integer",
                        (unsigned long)c->line, io_quote(t, tl, q, sizeof q),
                        el->name);
-    return PKSS_IO_OK;
+    return PKSS_OK;
 }
 
-static pkss_io_status ascii_rows(io_ctx *ctx, const ply_element *el,
+static pkss_status ascii_rows(io_ctx *ctx, const ply_element *el,
                                  io_cursor *c, double *out)
 {
     uint64_t r, j, k;
@@ -434,15 +434,15 @@ static pkss_io_status ascii_rows(io_ctx *ctx, const ply_element *el,
     const char *t;
     size_t tl;
     char q[64];
-    pkss_io_status st;
+    pkss_status st;
     if (el->n_props == 0)
-        return PKSS_IO_OK;
+        return PKSS_OK;
     for (r = 0; r < el->count; r++) {
         for (i = 0; i < el->n_props; i++) {
             const ply_prop *p = &el->props[i];
             if (p->count_type != IO_T_INVALID) {
                 st = ascii_list_len(ctx, el, r, c, &k);
-                if (st != PKSS_IO_OK)
+                if (st != PKSS_OK)
                     return st;
                 for (j = 0; j < k; j++)
                     if (!io_next_token(c, &t, &tl))
@@ -456,7 +456,7 @@ static pkss_io_status ascii_rows(io_ctx *ctx, const ply_element *el,
                 double v;
                 int axis = (int)i == el->ix ? 0 : (int)i == el->iy ? 1 : 2;
                 if (io_parse_double(t, tl, &v) != 0)
-                    return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                    return io_fail(ctx, PKSS_ERR_FORMAT,
                                    "PLY: line %lu: vertex %llu: '%s' is not "
                                    "a number",
                                    (unsigned long)c->line,
@@ -466,16 +466,16 @@ static pkss_io_status ascii_rows(io_ctx *ctx, const ply_element *el,
             }
         }
     }
-    return PKSS_IO_OK;
+    return PKSS_OK;
 }
 
 /* --------------------------------------------------------------- main */
 
-pkss_io_status io_read_ply(io_ctx *ctx, double **xyz, size_t *n)
+pkss_status io_read_ply(io_ctx *ctx, double **xyz, size_t *n)
 {
     ply_header h;
     size_t pos = 0, e, vi = 0;
-    pkss_io_status st;
+    pkss_status st;
     ply_element *v = NULL;
     io_cursor c;
     uint64_t need, left;
@@ -483,14 +483,14 @@ pkss_io_status io_read_ply(io_ctx *ctx, double **xyz, size_t *n)
     int ascii, be;
 
     st = ply_parse_header(ctx, &h, &pos);
-    if (st != PKSS_IO_OK) {
+    if (st != PKSS_OK) {
         ply_free(&h);
         return st;
     }
     for (e = 0; e < h.n_el; e++)
         if (strcmp(h.el[e].name, "vertex") == 0) {
             if (v) {
-                st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                st = io_fail(ctx, PKSS_ERR_FORMAT,
                              "PLY: the header declares a second 'vertex' element");
                 goto done;
             }
@@ -498,24 +498,24 @@ pkss_io_status io_read_ply(io_ctx *ctx, double **xyz, size_t *n)
             vi = e;
         }
     if (!v) {
-        st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
+        st = io_fail(ctx, PKSS_ERR_FORMAT,
                      "PLY: the header declares no 'vertex' element");
         goto done;
     }
     if (v->ix < 0 || v->iy < 0 || v->iz < 0) {
-        st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
+        st = io_fail(ctx, PKSS_ERR_FORMAT,
                      "PLY: element 'vertex' lacks property '%s'",
                      v->ix < 0 ? "x" : v->iy < 0 ? "y" : "z");
         goto done;
     }
     if (v->xyz_list) {
-        st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
+        st = io_fail(ctx, PKSS_ERR_FORMAT,
                      "PLY: vertex x, y and z must be scalar properties, not "
                      "lists");
         goto done;
     }
     if (v->count == 0) {
-        st = io_fail(ctx, PKSS_IO_ERR_EMPTY,
+        st = io_fail(ctx, PKSS_ERR_EMPTY_INPUT,
                      "PLY: the header declares 0 vertices");
         goto done;
     }
@@ -530,7 +530,7 @@ pkss_io_status io_read_ply(io_ctx *ctx, double **xyz, size_t *n)
             st = ascii_rows(ctx, &h.el[e], &c, NULL);
         else
             st = skip_binary(ctx, &h.el[e], be, &pos);
-        if (st != PKSS_IO_OK)
+        if (st != PKSS_OK)
             goto done;
     }
     if (ascii)
@@ -540,7 +540,7 @@ pkss_io_status io_read_ply(io_ctx *ctx, double **xyz, size_t *n)
     left = ctx->size - pos;
     if (io_mul_u64(v->count, row_min_bytes(v, ascii), &need) != 0 ||
         need > left + (ascii ? 1 : 0)) {
-        st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
+        st = io_fail(ctx, PKSS_ERR_FORMAT,
                      "PLY: truncated at byte %llu: expected %llu vertices "
                      "(%s%llu bytes each), got %llu bytes of vertex data "
                      "(%s%llu vertices)",
@@ -553,7 +553,7 @@ pkss_io_status io_read_ply(io_ctx *ctx, double **xyz, size_t *n)
     }
     out = io_alloc_points(ctx, v->count);
     if (!out) {
-        st = PKSS_IO_ERR_NOMEM;
+        st = PKSS_ERR_OUT_OF_MEMORY;
         goto done;
     }
     if (ascii)
@@ -565,22 +565,22 @@ pkss_io_status io_read_ply(io_ctx *ctx, double **xyz, size_t *n)
      * data disagree: refuse rather than guess. */
     const char *tok;
     size_t tlen;
-    if (st == PKSS_IO_OK && ascii && vi + 1 == h.n_el &&
+    if (st == PKSS_OK && ascii && vi + 1 == h.n_el &&
         io_next_token(&c, &tok, &tlen))
-        st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
+        st = io_fail(ctx, PKSS_ERR_FORMAT,
                      "PLY: data after the %llu vertices the header declares "
                      "(byte %llu)",
                      (unsigned long long)v->count,
                      (unsigned long long)(tok - (const char *)ctx->data));
-    else if (st == PKSS_IO_OK && !ascii && vi + 1 == h.n_el &&
+    else if (st == PKSS_OK && !ascii && vi + 1 == h.n_el &&
              row_is_fixed(v) && need < left)
-        st = io_fail(ctx, PKSS_IO_ERR_FORMAT,
+        st = io_fail(ctx, PKSS_ERR_FORMAT,
                      "PLY: data after the %llu vertices the header declares "
                      "(byte %llu, %llu bytes more)",
                      (unsigned long long)v->count,
                      (unsigned long long)(pos + need),
                      (unsigned long long)(left - need));
-    if (st != PKSS_IO_OK) {
+    if (st != PKSS_OK) {
         free(out);
         goto done;
     }

@@ -25,16 +25,16 @@ static size_t strip_comment(const char *line, size_t len)
     return h ? (size_t)(h - line) : len;
 }
 
-static pkss_io_status check_nul(io_ctx *ctx, const char *what)
+static pkss_status check_nul(io_ctx *ctx, const char *what)
 {
     const unsigned char *z =
         (const unsigned char *)memchr(ctx->data, '\0', ctx->size);
     if (z)
-        return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+        return io_fail(ctx, PKSS_ERR_FORMAT,
                        "%s: binary data (a NUL byte at offset %lu): not a "
                        "text file",
                        what, (unsigned long)(z - ctx->data));
-    return PKSS_IO_OK;
+    return PKSS_OK;
 }
 
 static int is_digit(char ch) { return ch >= '0' && ch <= '9'; }
@@ -94,7 +94,7 @@ static int grow(double **buf, size_t *cap, size_t need)
     return 0;
 }
 
-pkss_io_status io_read_xyz(io_ctx *ctx, double **xyz, size_t *n)
+pkss_status io_read_xyz(io_ctx *ctx, double **xyz, size_t *n)
 {
     io_cursor c;
     const char *line;
@@ -104,8 +104,8 @@ pkss_io_status io_read_xyz(io_ctx *ctx, double **xyz, size_t *n)
     int have_count = 0, started = 0;
     double *out = NULL;
     char q[64];
-    pkss_io_status st = check_nul(ctx, "XYZ");
-    if (st != PKSS_IO_OK)
+    pkss_status st = check_nul(ctx, "XYZ");
+    if (st != PKSS_OK)
         return st;
 
     io_cursor_init(&c, ctx->data, ctx->size);
@@ -113,7 +113,7 @@ pkss_io_status io_read_xyz(io_ctx *ctx, double **xyz, size_t *n)
         const char *s = line, *e = line + strip_comment(line, len);
         if (decimal_commas(s, e)) {
             free(out);
-            return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+            return io_fail(ctx, PKSS_ERR_FORMAT,
                            "XYZ: line %lu: '%s' looks like decimal commas; "
                            "write numbers with '.' (columns may be separated "
                            "by blanks or commas)",
@@ -148,7 +148,7 @@ pkss_io_status io_read_xyz(io_ctx *ctx, double **xyz, size_t *n)
         if (numeric) {
             if (grow(&out, &cap, rows + 1) != 0) {
                 free(out);
-                return io_fail(ctx, PKSS_IO_ERR_NOMEM,
+                return io_fail(ctx, PKSS_ERR_OUT_OF_MEMORY,
                                "XYZ: out of memory at line %lu",
                                (unsigned long)line_no);
             }
@@ -161,7 +161,7 @@ pkss_io_status io_read_xyz(io_ctx *ctx, double **xyz, size_t *n)
         }
         if (started) {
             free(out);
-            return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+            return io_fail(ctx, PKSS_ERR_FORMAT,
                            "XYZ: line %lu: expected 3 numeric columns, got "
                            "'%s'",
                            (unsigned long)line_no,
@@ -175,7 +175,7 @@ pkss_io_status io_read_xyz(io_ctx *ctx, double **xyz, size_t *n)
         }
         if (++header > IO_MAX_HEADER_LINES) {
             free(out);
-            return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+            return io_fail(ctx, PKSS_ERR_FORMAT,
                            "XYZ: line %lu: no row of 3 numeric columns in "
                            "the first %d non-blank lines (last: '%s'); not "
                            "a point list",
@@ -185,16 +185,16 @@ pkss_io_status io_read_xyz(io_ctx *ctx, double **xyz, size_t *n)
     }
     if (rows == 0) {
         if (header > 0)
-            return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+            return io_fail(ctx, PKSS_ERR_FORMAT,
                            "XYZ: no row of 3 numeric columns (%lu header "
                            "line%s only)",
                            (unsigned long)header, header == 1 ? "" : "s");
-        return io_fail(ctx, PKSS_IO_ERR_EMPTY,
+        return io_fail(ctx, PKSS_ERR_EMPTY_INPUT,
                        "XYZ: no points (only blank, comment or count lines)");
     }
     if (have_count && count > rows) {
         free(out);
-        return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+        return io_fail(ctx, PKSS_ERR_FORMAT,
                        "XYZ: truncated at byte %llu: line %lu says %llu "
                        "points but %lu rows follow",
                        (unsigned long long)ctx->size,
@@ -203,7 +203,7 @@ pkss_io_status io_read_xyz(io_ctx *ctx, double **xyz, size_t *n)
     }
     if (have_count && count != rows) {
         free(out);
-        return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+        return io_fail(ctx, PKSS_ERR_FORMAT,
                        "XYZ: line %lu says %llu points but %lu rows follow",
                        (unsigned long)count_line, (unsigned long long)count,
                        (unsigned long)rows);
@@ -215,7 +215,7 @@ pkss_io_status io_read_xyz(io_ctx *ctx, double **xyz, size_t *n)
     }
     *xyz = out;
     *n = rows;
-    return PKSS_IO_OK;
+    return PKSS_OK;
 }
 
 /* ---------------------------------------------------------------- OFF */
@@ -237,7 +237,7 @@ static int next_content_line(io_cursor *c, const char **s, const char **e,
     return 0;
 }
 
-pkss_io_status io_read_off(io_ctx *ctx, double **xyz, size_t *n)
+pkss_status io_read_off(io_ctx *ctx, double **xyz, size_t *n)
 {
     io_cursor c;
     const char *s, *e, *t, *off;
@@ -247,13 +247,13 @@ pkss_io_status io_read_off(io_ctx *ctx, double **xyz, size_t *n)
     size_t glued_len = 0;
     double *out;
     char q[64];
-    pkss_io_status st = check_nul(ctx, "OFF");
-    if (st != PKSS_IO_OK)
+    pkss_status st = check_nul(ctx, "OFF");
+    if (st != PKSS_OK)
         return st;
 
     io_cursor_init(&c, ctx->data, ctx->size);
     if (!next_content_line(&c, &s, &e, &line_no))
-        return io_fail(ctx, PKSS_IO_ERR_EMPTY,
+        return io_fail(ctx, PKSS_ERR_EMPTY_INPUT,
                        "OFF: no content (only blank or comment lines)");
     io_line_token(&s, e, 0, &t, &l);
     /* keyword: [ST][C][N][4][n]OFF, possibly followed by glued digits */
@@ -268,12 +268,12 @@ pkss_io_status io_read_off(io_ctx *ctx, double **xyz, size_t *n)
         if (!strchr("STCN4n", t[k]))
             off = NULL;
     if (!off)
-        return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+        return io_fail(ctx, PKSS_ERR_FORMAT,
                        "OFF: line %lu: '%s' is not an OFF keyword (OFF, "
                        "COFF, NOFF, ...)",
                        (unsigned long)line_no, io_quote(t, l, q, sizeof q));
     if (memchr(t, '4', pre) || memchr(t, 'n', pre))
-        return io_fail(ctx, PKSS_IO_ERR_UNSUPPORTED,
+        return io_fail(ctx, PKSS_ERR_UNSUPPORTED_FORMAT,
                        "OFF: 4D / nD OFF ('%s') is not supported",
                        io_quote(t, l, q, sizeof q));
     if (pre + 3 < l) {
@@ -292,17 +292,17 @@ pkss_io_status io_read_off(io_ctx *ctx, double **xyz, size_t *n)
             if (ncounts > 0)
                 break;
             if (!next_content_line(&c, &s, &e, &line_no))
-                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                return io_fail(ctx, PKSS_ERR_FORMAT,
                                "OFF: the file ends before the vertex count");
             continue;
         }
         if (ncounts == 0 && io_tok_eq(ct, cl, "BINARY"))
-            return io_fail(ctx, PKSS_IO_ERR_UNSUPPORTED,
+            return io_fail(ctx, PKSS_ERR_UNSUPPORTED_FORMAT,
                            "OFF: binary OFF is not supported");
         if (ncounts < 3) {
             int r = io_parse_u64(ct, cl, &counts[ncounts]);
             if (r != 0)
-                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                return io_fail(ctx, PKSS_ERR_FORMAT,
                                "OFF: line %lu: count '%s' is %s",
                                (unsigned long)line_no,
                                io_quote(ct, cl, q, sizeof q),
@@ -313,22 +313,22 @@ pkss_io_status io_read_off(io_ctx *ctx, double **xyz, size_t *n)
         }
     }
     if (counts[0] == 0)
-        return io_fail(ctx, PKSS_IO_ERR_EMPTY,
+        return io_fail(ctx, PKSS_ERR_EMPTY_INPUT,
                        "OFF: the header declares 0 vertices");
     left = io_cursor_left(&c);
     if (io_mul_u64(counts[0], 6, &need) != 0 || need > left + 1)
-        return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+        return io_fail(ctx, PKSS_ERR_FORMAT,
                        "OFF: header says %llu vertices but only %llu bytes "
                        "follow (at least 6 per vertex line)",
                        (unsigned long long)counts[0], (unsigned long long)left);
     out = io_alloc_points(ctx, counts[0]);
     if (!out)
-        return PKSS_IO_ERR_NOMEM;
+        return PKSS_ERR_OUT_OF_MEMORY;
     for (i = 0; i < counts[0]; i++) {
         size_t a;
         if (!next_content_line(&c, &s, &e, &line_no)) {
             free(out);
-            return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+            return io_fail(ctx, PKSS_ERR_FORMAT,
                            "OFF: truncated at byte %llu: expected %llu "
                            "vertices, got %llu",
                            (unsigned long long)ctx->size,
@@ -338,14 +338,14 @@ pkss_io_status io_read_off(io_ctx *ctx, double **xyz, size_t *n)
         for (a = 0; a < 3; a++) {
             if (!io_line_token(&s, e, 0, &t, &l)) {
                 free(out);
-                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                return io_fail(ctx, PKSS_ERR_FORMAT,
                                "OFF: line %lu: vertex %llu has fewer than 3 "
                                "coordinates",
                                (unsigned long)line_no, (unsigned long long)i);
             }
             if (io_parse_double(t, l, &out[3 * i + a]) != 0) {
                 free(out);
-                return io_fail(ctx, PKSS_IO_ERR_FORMAT,
+                return io_fail(ctx, PKSS_ERR_FORMAT,
                                "OFF: line %lu: vertex %llu: '%s' is not a "
                                "number",
                                (unsigned long)line_no, (unsigned long long)i,
@@ -355,5 +355,5 @@ pkss_io_status io_read_off(io_ctx *ctx, double **xyz, size_t *n)
     }
     *xyz = out;
     *n = (size_t)counts[0];
-    return PKSS_IO_OK;
+    return PKSS_OK;
 }

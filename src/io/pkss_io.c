@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT
- * pkss_io.c -- format names, bounded file reading, dispatch to the parsers,
- * the PLY writer and the helpers declared in io_internal.h.
+ * pkss_io.c -- format names, bounded file reading, dispatch to the parsers
+ * and the helpers declared in io_internal.h (writers: io_write.c).
  */
 #define _POSIX_C_SOURCE 200809L /* fileno, fstat, mmap */
 #include "io_internal.h"
@@ -17,7 +17,7 @@
 
 /* ================================================================ errors */
 
-pkss_io_status io_fail(io_ctx *ctx, pkss_io_status status, const char *fmt,
+pkss_status io_fail(io_ctx *ctx, pkss_status status, const char *fmt,
                        ...)
 {
     if (ctx && ctx->err && ctx->err_size > 0) {
@@ -311,13 +311,13 @@ double *io_alloc_points(io_ctx *ctx, uint64_t n)
 {
     double *p;
     if (n == 0 || n > SIZE_MAX / (3 * sizeof(double))) {
-        io_fail(ctx, PKSS_IO_ERR_NOMEM, "cannot hold %llu points in memory",
+        io_fail(ctx, PKSS_ERR_OUT_OF_MEMORY, "cannot hold %llu points in memory",
                 (unsigned long long)n);
         return NULL;
     }
     p = (double *)malloc((size_t)n * 3 * sizeof(double));
     if (!p)
-        io_fail(ctx, PKSS_IO_ERR_NOMEM,
+        io_fail(ctx, PKSS_ERR_OUT_OF_MEMORY,
                 "out of memory allocating %llu points (%llu bytes)",
                 (unsigned long long)n,
                 (unsigned long long)(n * 3 * sizeof(double)));
@@ -328,57 +328,62 @@ double *io_alloc_points(io_ctx *ctx, uint64_t n)
 
 static const struct {
     const char *name;
-    pkss_io_format fmt;
+    pkss_format fmt;
 } k_names[] = {
-    {"auto", PKSS_IO_AUTO}, {"ply", PKSS_IO_PLY},     {"pcd", PKSS_IO_PCD},
-    {"xyz", PKSS_IO_XYZ},   {"txt", PKSS_IO_XYZ},     {"csv", PKSS_IO_XYZ},
-    {"pts", PKSS_IO_XYZ},   {"asc", PKSS_IO_XYZ},     {"off", PKSS_IO_OFF},
-    {"bin", PKSS_IO_KITTI}, {"kitti", PKSS_IO_KITTI}, {"vtk", PKSS_IO_VTK},
+    {"auto", PKSS_FORMAT_AUTO}, {"ply", PKSS_FORMAT_PLY},     {"pcd", PKSS_FORMAT_PCD},
+    {"xyz", PKSS_FORMAT_XYZ},   {"txt", PKSS_FORMAT_XYZ},     {"csv", PKSS_FORMAT_XYZ},
+    {"pts", PKSS_FORMAT_XYZ},   {"asc", PKSS_FORMAT_XYZ},     {"off", PKSS_FORMAT_OFF},
+    {"bin", PKSS_FORMAT_KITTI}, {"kitti", PKSS_FORMAT_KITTI}, {"vtk", PKSS_FORMAT_VTK},
+    {"npy", PKSS_FORMAT_NPY},   {"npz", PKSS_FORMAT_NPZ},
 };
 
-const char *pkss_io_format_name(pkss_io_format f)
+const char *pkss_format_name(pkss_format f)
 {
     switch (f) {
-    case PKSS_IO_AUTO: return "auto";
-    case PKSS_IO_PLY: return "ply";
-    case PKSS_IO_PCD: return "pcd";
-    case PKSS_IO_XYZ: return "xyz";
-    case PKSS_IO_OFF: return "off";
-    case PKSS_IO_KITTI: return "kitti";
-    case PKSS_IO_VTK: return "vtk";
+    case PKSS_FORMAT_AUTO: return "auto";
+    case PKSS_FORMAT_PLY: return "ply";
+    case PKSS_FORMAT_PCD: return "pcd";
+    case PKSS_FORMAT_XYZ: return "xyz";
+    case PKSS_FORMAT_OFF: return "off";
+    case PKSS_FORMAT_KITTI: return "kitti";
+    case PKSS_FORMAT_VTK: return "vtk";
+    case PKSS_FORMAT_NPY: return "npy";
+    case PKSS_FORMAT_NPZ: return "npz";
     default: return NULL;
     }
 }
 
-pkss_io_format pkss_io_format_from_name(const char *name)
+pkss_format pkss_format_from_name(const char *name)
 {
     size_t i;
     if (!name)
-        return PKSS_IO_AUTO;
+        return PKSS_FORMAT_AUTO;
     for (i = 0; i < sizeof k_names / sizeof k_names[0]; i++)
         if (io_tok_eq(name, strlen(name), k_names[i].name))
             return k_names[i].fmt;
-    return (pkss_io_format)-1;
+    return (pkss_format)-1;
 }
 
-pkss_io_format pkss_io_format_from_path(const char *path)
+pkss_format pkss_format_from_path(const char *path)
 {
     const char *dot, *slash;
     size_t i;
     if (!path)
-        return PKSS_IO_AUTO;
+        return PKSS_FORMAT_AUTO;
     dot = strrchr(path, '.');
     slash = strrchr(path, '/');
     if (!dot || (slash && dot < slash) || dot[1] == '\0')
-        return PKSS_IO_AUTO;
+        return PKSS_FORMAT_AUTO;
+    if (io_tok_eq(dot + 1, 4, "npz:")) /* "scan.npz:points" */
+        return PKSS_FORMAT_NPZ;
     for (i = 1; i < sizeof k_names / sizeof k_names[0]; i++) {
-        if (k_names[i].fmt == PKSS_IO_KITTI &&
+        if (k_names[i].fmt == PKSS_FORMAT_KITTI &&
             strcmp(k_names[i].name, "kitti") == 0)
             continue; /* "kitti" is a format name, not an extension */
         if (io_tok_eq(dot + 1, strlen(dot + 1), k_names[i].name))
             return k_names[i].fmt;
     }
-    return PKSS_IO_AUTO;
+    return PKSS_FORMAT_AUTO;
 }
 
 static int has_bom(const unsigned char *d, size_t n)
@@ -392,121 +397,127 @@ static int starts_with(const unsigned char *d, size_t n, const char *w)
     return n >= l && memcmp(d, w, l) == 0;
 }
 
-pkss_io_format pkss_io_format_from_content(const void *data, size_t size)
+pkss_format pkss_format_from_content(const void *data, size_t size)
 {
     const unsigned char *d = (const unsigned char *)data;
     size_t i;
     if (!d || size == 0)
-        return PKSS_IO_AUTO;
+        return PKSS_FORMAT_AUTO;
+    if (starts_with(d, size, "\x93NUMPY"))
+        return PKSS_FORMAT_NPY;
+    if (starts_with(d, size, "PK\x03\x04") || starts_with(d, size, "PK\x05\x06"))
+        return PKSS_FORMAT_NPZ;
     if (has_bom(d, size)) {
         d += 3;
         size -= 3;
     }
     if (starts_with(d, size, "ply\n") || starts_with(d, size, "ply\r\n"))
-        return PKSS_IO_PLY;
+        return PKSS_FORMAT_PLY;
     if (starts_with(d, size, "# vtk DataFile"))
-        return PKSS_IO_VTK;
+        return PKSS_FORMAT_VTK;
     if (starts_with(d, size, "# .PCD") || starts_with(d, size, "VERSION") ||
         starts_with(d, size, "FIELDS"))
-        return PKSS_IO_PCD;
+        return PKSS_FORMAT_PCD;
     for (i = 0; i < size && i < 8 && isupper(d[i]); i++)
         ;
     if (i >= 3 && i < size && memcmp(d + i - 3, "OFF", 3) == 0 &&
         (isspace(d[i]) || isdigit(d[i])))
-        return PKSS_IO_OFF;
-    return PKSS_IO_AUTO;
-}
-
-const char *pkss_io_status_name(pkss_io_status s)
-{
-    switch (s) {
-    case PKSS_IO_OK: return "PKSS_IO_OK";
-    case PKSS_IO_ERR_OPEN: return "PKSS_IO_ERR_OPEN";
-    case PKSS_IO_ERR_FORMAT: return "PKSS_IO_ERR_FORMAT";
-    case PKSS_IO_ERR_UNSUPPORTED: return "PKSS_IO_ERR_UNSUPPORTED";
-    case PKSS_IO_ERR_NOMEM: return "PKSS_IO_ERR_NOMEM";
-    case PKSS_IO_ERR_ARGUMENT: return "PKSS_IO_ERR_ARGUMENT";
-    case PKSS_IO_ERR_EMPTY: return "PKSS_IO_ERR_EMPTY";
-    default: return "PKSS_IO_UNKNOWN_STATUS";
-    }
+        return PKSS_FORMAT_OFF;
+    return PKSS_FORMAT_AUTO;
 }
 
 /* ============================================================= reading */
 
 /* The prefix the parsers use in their messages. */
-static const char *display_name(pkss_io_format f)
+static const char *display_name(pkss_format f)
 {
     switch (f) {
-    case PKSS_IO_PLY: return "PLY";
-    case PKSS_IO_PCD: return "PCD";
-    case PKSS_IO_XYZ: return "XYZ";
-    case PKSS_IO_OFF: return "OFF";
-    case PKSS_IO_KITTI: return "KITTI";
-    case PKSS_IO_VTK: return "VTK";
+    case PKSS_FORMAT_PLY: return "PLY";
+    case PKSS_FORMAT_PCD: return "PCD";
+    case PKSS_FORMAT_XYZ: return "XYZ";
+    case PKSS_FORMAT_OFF: return "OFF";
+    case PKSS_FORMAT_KITTI: return "KITTI";
+    case PKSS_FORMAT_VTK: return "VTK";
+    case PKSS_FORMAT_NPY: return "NPY";
+    case PKSS_FORMAT_NPZ: return "NPZ";
     default: return "?";
     }
 }
 
-static pkss_io_status parse(io_ctx *ctx, pkss_io_format fmt, double **xyz,
+static pkss_status parse(io_ctx *ctx, pkss_format fmt, double **xyz,
                             size_t *n)
 {
-    pkss_io_status st;
+    pkss_status st;
     /* A UTF-8 byte order mark is accepted before every text header alike
-     * (KITTI is binary from its first byte). */
-    if (fmt != PKSS_IO_KITTI && ctx->size >= 3 &&
+     * (KITTI, NPY and NPZ are binary from their first byte). */
+    if (!io_format_is_binary(fmt) && ctx->size >= 3 &&
         memcmp(ctx->data, "\xEF\xBB\xBF", 3) == 0) {
         ctx->data += 3;
         ctx->size -= 3;
     }
     if (ctx->size == 0)
-        return io_fail(ctx, PKSS_IO_ERR_EMPTY, "%s: the file is empty (0 bytes)",
+        return io_fail(ctx, PKSS_ERR_EMPTY_INPUT, "%s: the file is empty (0 bytes)",
                        display_name(fmt));
     switch (fmt) {
-    case PKSS_IO_PLY: st = io_read_ply(ctx, xyz, n); break;
-    case PKSS_IO_PCD: st = io_read_pcd(ctx, xyz, n); break;
-    case PKSS_IO_XYZ: st = io_read_xyz(ctx, xyz, n); break;
-    case PKSS_IO_OFF: st = io_read_off(ctx, xyz, n); break;
-    case PKSS_IO_KITTI: st = io_read_kitti(ctx, xyz, n); break;
-    case PKSS_IO_VTK: st = io_read_vtk(ctx, xyz, n); break;
+    case PKSS_FORMAT_PLY: st = io_read_ply(ctx, xyz, n); break;
+    case PKSS_FORMAT_PCD: st = io_read_pcd(ctx, xyz, n); break;
+    case PKSS_FORMAT_XYZ: st = io_read_xyz(ctx, xyz, n); break;
+    case PKSS_FORMAT_OFF: st = io_read_off(ctx, xyz, n); break;
+    case PKSS_FORMAT_KITTI: st = io_read_kitti(ctx, xyz, n); break;
+    case PKSS_FORMAT_VTK: st = io_read_vtk(ctx, xyz, n); break;
+    case PKSS_FORMAT_NPY: st = io_read_npy(ctx, xyz, n); break;
+    case PKSS_FORMAT_NPZ: st = io_read_npz(ctx, xyz, n); break;
     default:
-        return io_fail(ctx, PKSS_IO_ERR_ARGUMENT, "unknown format code %d",
+        return io_fail(ctx, PKSS_ERR_INVALID_ARGUMENT, "unknown format code %d",
                        (int)fmt);
     }
-    if (st != PKSS_IO_OK) {
+    if (st != PKSS_OK) {
         free(*xyz);
         *xyz = NULL;
         *n = 0;
     } else if (*n == 0) {
         free(*xyz);
         *xyz = NULL;
-        st = io_fail(ctx, PKSS_IO_ERR_EMPTY, "%s: the file holds no points",
+        st = io_fail(ctx, PKSS_ERR_EMPTY_INPUT, "%s: the file holds no points",
                      display_name(fmt));
     }
     return st;
 }
 
-pkss_io_status pkss_io_read_memory(const void *data, size_t size,
-                                   pkss_io_format fmt, double **xyz,
-                                   size_t *n, char *err, size_t err_size)
+int io_format_is_binary(pkss_format f)
+{
+    return f == PKSS_FORMAT_KITTI || f == PKSS_FORMAT_NPY || f == PKSS_FORMAT_NPZ;
+}
+
+pkss_status pkss_read_points_buffer(const void *data, size_t size,
+                                    pkss_format fmt, const char *array,
+                                    double **xyz, size_t *n, char *err,
+                                    size_t err_size)
 {
     io_ctx ctx;
+    memset(&ctx, 0, sizeof ctx);
     ctx.data = (const unsigned char *)data;
     ctx.size = size;
     ctx.err = err;
     ctx.err_size = err_size;
+    ctx.array = array;
     if (err && err_size)
         err[0] = '\0';
     if (!xyz || !n)
-        return io_fail(&ctx, PKSS_IO_ERR_ARGUMENT, "xyz and n must not be NULL");
+        return io_fail(&ctx, PKSS_ERR_NULL_ARGUMENT, "xyz and n must not be NULL");
     *xyz = NULL;
     *n = 0;
     if (!data && size > 0)
-        return io_fail(&ctx, PKSS_IO_ERR_ARGUMENT, "data is NULL");
-    if (fmt == PKSS_IO_AUTO)
-        fmt = pkss_io_format_from_content(data, size);
-    if (fmt == PKSS_IO_AUTO || pkss_io_format_name(fmt) == NULL)
-        return io_fail(&ctx, PKSS_IO_ERR_ARGUMENT,
+        return io_fail(&ctx, PKSS_ERR_NULL_ARGUMENT, "data is NULL");
+    if (fmt == PKSS_FORMAT_AUTO)
+        fmt = pkss_format_from_content(data, size);
+    if (fmt == PKSS_FORMAT_AUTO || pkss_format_name(fmt) == NULL)
+        return io_fail(&ctx, PKSS_ERR_INVALID_ARGUMENT,
                        "cannot tell the format: give one explicitly");
+    if (array && fmt != PKSS_FORMAT_NPZ)
+        return io_fail(&ctx, PKSS_ERR_INVALID_ARGUMENT,
+                       "an array name (\"%.64s\") only selects a member of an .npz, "
+                       "not of a %s file", array, display_name(fmt));
     return parse(&ctx, fmt, xyz, n);
 }
 
@@ -529,21 +540,25 @@ static const unsigned char *find_bytes(const unsigned char *d, size_t n,
 /* 0 when the first bytes cannot begin a file of format fmt: a text format
  * with a NUL byte, or a header without its magic. Conservative: 1 when in
  * doubt (the parser decides). */
-static int prefix_fits(pkss_io_format fmt, const unsigned char *d, size_t n)
+static int prefix_fits(pkss_format fmt, const unsigned char *d, size_t n)
 {
-    if (has_bom(d, n) && fmt != PKSS_IO_KITTI) {
+    if (fmt == PKSS_FORMAT_NPY)
+        return n < 6 ? memcmp(d, "\x93NUMPY", n) == 0 : starts_with(d, n, "\x93NUMPY");
+    if (fmt == PKSS_FORMAT_NPZ)
+        return n < 2 || starts_with(d, n, "PK");
+    if (has_bom(d, n) && !io_format_is_binary(fmt)) {
         d += 3;
         n -= 3;
     }
-    if (fmt == PKSS_IO_KITTI || n == 0)
+    if (fmt == PKSS_FORMAT_KITTI || n == 0)
         return 1;
-    if (fmt == PKSS_IO_PLY)
+    if (fmt == PKSS_FORMAT_PLY)
         return n < 5 ? memcmp(d, "ply\n", n < 4 ? n : 4) == 0
                      : starts_with(d, n, "ply\n") || starts_with(d, n, "ply\r\n");
-    if (fmt == PKSS_IO_VTK)
+    if (fmt == PKSS_FORMAT_VTK)
         return n < 14 || starts_with(d, n, "# vtk DataFile");
     /* text formats: the header (PCD: up to its DATA line) has no NUL */
-    const unsigned char *data = fmt == PKSS_IO_PCD
+    const unsigned char *data = fmt == PKSS_FORMAT_PCD
         ? find_bytes(d, n, "\nDATA binary", 12) : NULL;
     size_t upto = data ? (size_t)(data - d) : n;
     return memchr(d, 0, upto) == NULL;
@@ -553,10 +568,10 @@ static int prefix_fits(pkss_io_format fmt, const unsigned char *d, size_t n)
  * stream by IO_STREAM_CAP. The first IO_PREFIX bytes are checked against
  * the format first, so a wrong file (/dev/zero, a huge file of another
  * kind) is refused after reading them. *fmt is resolved from the content
- * when it is PKSS_IO_AUTO. *buf is malloc'd, or mapped when *mapped is
+ * when it is PKSS_FORMAT_AUTO. *buf is malloc'd, or mapped when *mapped is
  * set (a regular file larger than the prefix). */
-static pkss_io_status read_bounded(FILE *f, const char *path,
-                                   pkss_io_format *fmt, unsigned char **buf,
+static pkss_status read_bounded(FILE *f, const char *path,
+                                   pkss_format *fmt, unsigned char **buf,
                                    size_t *size, int *mapped, char *err,
                                    size_t err_size)
 {
@@ -564,26 +579,26 @@ static pkss_io_status read_bounded(FILE *f, const char *path,
     int regular = fstat(fileno(f), &st) == 0 && S_ISREG(st.st_mode);
     if (fstat(fileno(f), &st) == 0 && S_ISDIR(st.st_mode)) {
         set_err(err, err_size, "%s: is a directory", path);
-        return PKSS_IO_ERR_OPEN;
+        return PKSS_ERR_IO;
     }
     if (regular && (uintmax_t)st.st_size >= (uintmax_t)SIZE_MAX) {
         set_err(err, err_size, "%s: file too large", path);
-        return PKSS_IO_ERR_NOMEM;
+        return PKSS_ERR_OUT_OF_MEMORY;
     }
     size_t limit = regular ? (size_t)st.st_size : IO_STREAM_CAP;
     size_t cap = limit < IO_PREFIX ? limit + 1 : IO_PREFIX, len = 0;
     unsigned char *b = (unsigned char *)malloc(cap);
     if (!b) {
         set_err(err, err_size, "%s: out of memory", path);
-        return PKSS_IO_ERR_NOMEM;
+        return PKSS_ERR_OUT_OF_MEMORY;
     }
     int checked = 0;
     for (;;) {
         if (!checked && (len >= IO_PREFIX || len == limit || feof(f))) {
             checked = 1;
-            if (*fmt == PKSS_IO_AUTO)
-                *fmt = pkss_io_format_from_content(b, len);
-            if (*fmt == PKSS_IO_AUTO || !prefix_fits(*fmt, b, len))
+            if (*fmt == PKSS_FORMAT_AUTO)
+                *fmt = pkss_format_from_content(b, len);
+            if (*fmt == PKSS_FORMAT_AUTO || !prefix_fits(*fmt, b, len))
                 break; /* unknown, or the parser names what is wrong from these bytes */
             if (regular && cap < limit + 1) {
                 /* Map a regular file rather than copy it: only the pages
@@ -598,7 +613,7 @@ static pkss_io_status read_bounded(FILE *f, const char *path,
                     *buf = (unsigned char *)m;
                     *size = limit;
                     *mapped = 1;
-                    return PKSS_IO_OK;
+                    return PKSS_OK;
                 }
             }
             if (regular && cap < limit + 1) { /* all of it, in one block */
@@ -607,7 +622,7 @@ static pkss_io_status read_bounded(FILE *f, const char *path,
                     free(b);
                     set_err(err, err_size, "%s: out of memory reading %zu bytes",
                             path, limit);
-                    return PKSS_IO_ERR_NOMEM;
+                    return PKSS_ERR_OUT_OF_MEMORY;
                 }
                 b = nb;
                 cap = limit + 1;
@@ -621,7 +636,7 @@ static pkss_io_status read_bounded(FILE *f, const char *path,
             if (!nb) {
                 free(b);
                 set_err(err, err_size, "%s: out of memory after %zu bytes", path, len);
-                return PKSS_IO_ERR_NOMEM;
+                return PKSS_ERR_OUT_OF_MEMORY;
             }
             b = nb;
             cap = grow;
@@ -637,7 +652,7 @@ static pkss_io_status read_bounded(FILE *f, const char *path,
                 free(b);
                 set_err(err, err_size, "%s: read error: %s", path,
                         e ? strerror(e) : "unknown error");
-                return PKSS_IO_ERR_OPEN;
+                return PKSS_ERR_IO;
             }
             if (checked)
                 break;
@@ -649,11 +664,11 @@ static pkss_io_status read_bounded(FILE *f, const char *path,
                 "%s: more than %zu bytes from a pipe or device (the limit for "
                 "streams); read it from a regular file",
                 path, (size_t)IO_STREAM_CAP);
-        return PKSS_IO_ERR_FORMAT;
+        return PKSS_ERR_FORMAT;
     }
     *buf = b;
     *size = len;
-    return PKSS_IO_OK;
+    return PKSS_OK;
 }
 
 static void release(unsigned char *buf, size_t size, int mapped)
@@ -664,143 +679,113 @@ static void release(unsigned char *buf, size_t size, int mapped)
         free(buf);
 }
 
-pkss_io_status pkss_io_read(const char *path, pkss_io_format fmt,
-                            double **xyz, size_t *n, char *err,
-                            size_t err_size)
+/* "scan.npz:name" -> the file "scan.npz" and the member "name", unless a
+ * file of the whole name exists. @return the file part (malloc'd) with
+ * *member set, NULL with *member NULL when there is nothing to split, or
+ * NULL with *member set to path itself when out of memory. */
+static char *split_member(const char *path, const char **member)
+{
+    const char *slash = strrchr(path, '/');
+    const char *base = slash ? slash + 1 : path;
+    const char *colon = strrchr(base, ':');
+    struct stat st;
+    char *file;
+    *member = NULL;
+    if (!colon || colon - base < 4 || !io_tok_eq(colon - 4, 4, ".npz") ||
+        stat(path, &st) == 0)
+        return NULL;
+    file = (char *)malloc((size_t)(colon - path) + 1);
+    if (!file) {
+        *member = path;
+        return NULL;
+    }
+    memcpy(file, path, (size_t)(colon - path));
+    file[colon - path] = '\0';
+    *member = colon + 1;
+    return file;
+}
+
+pkss_status pkss_read_points(const char *path, pkss_format fmt,
+                             double **xyz, size_t *n, char *err,
+                             size_t err_size)
 {
     int mapped = 0;
     FILE *f;
     unsigned char *buf = NULL;
     size_t size = 0;
-    pkss_io_status st;
+    pkss_status st;
     char msg[1024];
     int is_stdin;
     io_ctx ctx;
+    const char *member = NULL;
+    char *file = NULL;
 
     if (err && err_size)
         err[0] = '\0';
     if (!xyz || !n || !path) {
         set_err(err, err_size, "path, xyz and n must not be NULL");
-        return PKSS_IO_ERR_ARGUMENT;
+        return PKSS_ERR_NULL_ARGUMENT;
     }
     *xyz = NULL;
     *n = 0;
-    if (pkss_io_format_name(fmt) == NULL) {
+    if (pkss_format_name(fmt) == NULL) {
         set_err(err, err_size, "%s: unknown format code %d", path, (int)fmt);
-        return PKSS_IO_ERR_ARGUMENT;
+        return PKSS_ERR_INVALID_ARGUMENT;
     }
     is_stdin = strcmp(path, "-") == 0;
-    if (fmt == PKSS_IO_AUTO)
-        fmt = pkss_io_format_from_path(path);
+    if (fmt == PKSS_FORMAT_AUTO)
+        fmt = pkss_format_from_path(path);
+    if (fmt == PKSS_FORMAT_NPZ && !is_stdin) {
+        file = split_member(path, &member);
+        if (!file && member) {
+            set_err(err, err_size, "%s: out of memory", path);
+            return PKSS_ERR_OUT_OF_MEMORY;
+        }
+    }
 
     errno = 0;
-    f = is_stdin ? stdin : fopen(path, "rb");
+    f = is_stdin ? stdin : fopen(file ? file : path, "rb");
     if (!f) {
-        set_err(err, err_size, "%s: cannot open: %s", path,
+        set_err(err, err_size, "%s: cannot open: %s", file ? file : path,
                 errno ? strerror(errno) : "unknown error");
-        return PKSS_IO_ERR_OPEN;
+        free(file);
+        return PKSS_ERR_IO;
     }
     errno = 0;
     st = read_bounded(f, path, &fmt, &buf, &size, &mapped, err, err_size);
     if (!is_stdin)
         fclose(f);
-    if (st != PKSS_IO_OK)
+    if (st != PKSS_OK) {
+        free(file);
         return st;
+    }
 
-    if (fmt == PKSS_IO_AUTO) { /* read_bounded looked at the content */
+    if (fmt == PKSS_FORMAT_AUTO) { /* read_bounded looked at the content */
         release(buf, size, mapped);
+        free(file);
         set_err(err, err_size,
                 "%s: cannot tell the format from the extension or the "
                 "content (known: .ply .pcd .xyz .txt .csv .pts .off .bin "
-                ".vtk); name it explicitly",
+                ".vtk .npy .npz); name it explicitly",
                 path);
-        return PKSS_IO_ERR_ARGUMENT;
+        return PKSS_ERR_INVALID_ARGUMENT;
     }
     msg[0] = '\0';
+    memset(&ctx, 0, sizeof ctx);
     ctx.data = buf;
     ctx.size = size;
     ctx.err = msg;
     ctx.err_size = sizeof msg;
+    ctx.array = fmt == PKSS_FORMAT_NPZ ? member : NULL;
     st = parse(&ctx, fmt, xyz, n);
     release(buf, size, mapped);
-    if (st != PKSS_IO_OK)
+    if (st != PKSS_OK)
         set_err(err, err_size, "%s: %s", path, msg);
+    free(file);
     return st;
 }
 
-void pkss_io_free(double *xyz)
+void pkss_points_free(double *xyz)
 {
     free(xyz);
-}
-
-/* ============================================================== writing */
-
-static int host_is_little_endian(void)
-{
-    const uint16_t one = 1;
-    unsigned char b;
-    memcpy(&b, &one, 1);
-    return b == 1;
-}
-
-pkss_io_status pkss_io_write_ply(const char *path, const double *xyz,
-                                 size_t n, int ascii, char *err,
-                                 size_t err_size)
-{
-    FILE *f;
-    size_t i;
-    int ok = 1, le = host_is_little_endian();
-
-    if (err && err_size)
-        err[0] = '\0';
-    if (!path || (!xyz && n > 0)) {
-        set_err(err, err_size, "path and xyz must not be NULL");
-        return PKSS_IO_ERR_ARGUMENT;
-    }
-    errno = 0;
-    f = fopen(path, ascii ? "w" : "wb");
-    if (!f) {
-        set_err(err, err_size, "%s: cannot create: %s", path,
-                errno ? strerror(errno) : "unknown error");
-        return PKSS_IO_ERR_OPEN;
-    }
-    if (fprintf(f,
-                "ply\nformat %s 1.0\ncomment written by pkss_io\n"
-                "element vertex %llu\nproperty double x\nproperty double y\n"
-                "property double z\nend_header\n",
-                ascii ? "ascii" : "binary_little_endian",
-                (unsigned long long)n) < 0)
-        ok = 0;
-    for (i = 0; ok && i < n; i++) {
-        if (ascii) {
-            if (fprintf(f, "%.17g %.17g %.17g\n", xyz[3 * i], xyz[3 * i + 1],
-                        xyz[3 * i + 2]) < 0)
-                ok = 0;
-        } else {
-            unsigned char rec[24];
-            int k;
-            memcpy(rec, xyz + 3 * i, 24);
-            if (!le)
-                for (k = 0; k < 3; k++) {
-                    int j;
-                    for (j = 0; j < 4; j++) {
-                        unsigned char t = rec[8 * k + j];
-                        rec[8 * k + j] = rec[8 * k + 7 - j];
-                        rec[8 * k + 7 - j] = t;
-                    }
-                }
-            if (fwrite(rec, 1, 24, f) != 24)
-                ok = 0;
-        }
-    }
-    if (fflush(f) != 0 || ferror(f))
-        ok = 0;
-    if (fclose(f) != 0)
-        ok = 0;
-    if (!ok) {
-        set_err(err, err_size, "%s: write failed: %s", path,
-                errno ? strerror(errno) : "unknown error");
-        return PKSS_IO_ERR_OPEN;
-    }
-    return PKSS_IO_OK;
 }
