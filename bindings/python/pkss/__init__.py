@@ -120,6 +120,9 @@ class Error(Exception):
         s = int(status)
         if s == lib.PKSS_ERR_CANCELLED:  # not the caller's mistake: no ValueError
             return Cancelled
+        if s == lib.PKSS_ERR_IO:  # a file, not memory, though in the 100s
+            from .io import FileError
+            return FileError
         if 1 <= s <= 99:
             return InvalidArgument
         if 100 <= s <= 199:
