@@ -160,6 +160,7 @@ def stamp():
             f"{platform.release()}, load average {load} at the start")
 
 
+
 def measure(aligns, configs, repeats, folder, mesh, seed):
     """configs: list of (n, m). Returns {(label, n, m): list of runs}."""
     pairs = {}
@@ -228,6 +229,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--align", default=os.path.join(ROOT, "build", "tools", "pkss-align"))
     ap.add_argument("--baseline", help="a second pkss-align, run alternately (A/B)")
+    ap.add_argument("--labels", default="this,baseline",
+                    help="names of --align and --baseline in the table")
     ap.add_argument("--sizes", default="10000,50000,100000,200000,500000,1000000,2000000")
     ap.add_argument("--ms", default="1000,2000,3000,6000,12000",
                     help="m values, at --m-size points per cloud")
@@ -241,7 +244,8 @@ def main():
     if not os.path.exists(MESH):
         sys.exit(f"bench_scaling: the bunny mesh is missing: {MESH}")
     mesh = read_ascii_mesh(MESH)
-    aligns = [("this", a.align)] + ([("baseline", a.baseline)] if a.baseline else [])
+    names = (a.labels.split(",") + ["this", "baseline"])[:2]
+    aligns = [(names[0], a.align)] + ([(names[1], a.baseline)] if a.baseline else [])
     sizes = [int(x) for x in a.sizes.split(",") if x]
     ms = [int(x) for x in a.ms.split(",") if x]
     header = stamp()
@@ -252,6 +256,7 @@ def main():
     by_n = sorted(by_n.items(), key=lambda kv: (kv[0][1], kv[0][0]))
     by_m = sorted(by_m.items(), key=lambda kv: (kv[0][2], kv[0][0]))
     note = plot(a.png, by_n, by_m) if a.png else ""
+    header += ", %s at the end" % " ".join(f"{x:.2f}" for x in os.getloadavg())
     text = ["# Scaling: time and memory against input size and m", "",
             "Written by `tools/bench_scaling.py` (do not edit by hand); "
             f"{header}.", "",
