@@ -92,9 +92,35 @@ static inline uint64_t voxel_key(const thin_grid *g, const double *p,
     return (c[0] << (2 * THIN_BITS)) | (c[1] << THIN_BITS) | c[2];
 }
 
+/* Points whose keys are computed (and slots prefetched) before any of
+ * them is inserted: the set is far larger than the caches, so a point's
+ * probe is a memory access that is better issued early. */
+#define THIN_BATCH 16
+
+/* Inserts one point's key; 0 when the set is full (count == limit). */
+static inline int insert(thin_grid *g, uint64_t key, size_t s, uint32_t i,
+                         float d2, size_t *count)
+{
+    while (g->table[s].key != THIN_EMPTY && g->table[s].key != key)
+        s = (s + 1) & g->mask;
+    thin_slot *slot = &g->table[s];
+    if (slot->key == THIN_EMPTY) {
+        if (*count == g->limit)
+            return 0;
+        slot->key = key;
+        slot->rep = i;
+        slot->d2 = d2;
+        ++*count;
+    } else if (d2 < slot->d2) {
+        slot->rep = i;
+        slot->d2 = d2;
+    }
+    return 1;
+}
+
 /* Number of occupied voxels at edge h (limit + 1: more than the set
  * holds), and each voxel's point closest to the centre (lowest index on
- * ties). */
+ * ties). Points are inserted in index order. */
 static size_t occupied(thin_grid *g, const double *xyz, size_t n, double h)
 {
     double inv_h = 1.0 / h;
@@ -103,24 +129,21 @@ static size_t occupied(thin_grid *g, const double *xyz, size_t n, double h)
         g->table[s].key = THIN_EMPTY;
     g->h = h;
     g->complete = 0;
-    for (size_t i = 0; i < n; ++i) {
-        float d2;
-        uint64_t key = voxel_key(g, xyz + 3 * i, h, inv_h, &d2);
-        size_t s = (size_t)hash_key(key) & g->mask;
-        while (g->table[s].key != THIN_EMPTY && g->table[s].key != key)
-            s = (s + 1) & g->mask;
-        thin_slot *slot = &g->table[s];
-        if (slot->key == THIN_EMPTY) {
-            if (count == g->limit)
-                return count + 1; /* more than limit: "too many" */
-            slot->key = key;
-            slot->rep = (uint32_t)i;
-            slot->d2 = d2;
-            ++count;
-        } else if (d2 < slot->d2) {
-            slot->rep = (uint32_t)i;
-            slot->d2 = d2;
+    uint64_t key[THIN_BATCH];
+    size_t slot[THIN_BATCH];
+    float d2[THIN_BATCH];
+    for (size_t i0 = 0; i0 < n; i0 += THIN_BATCH) {
+        size_t b = n - i0 < THIN_BATCH ? n - i0 : THIN_BATCH;
+        for (size_t j = 0; j < b; ++j) {
+            key[j] = voxel_key(g, xyz + 3 * (i0 + j), h, inv_h, &d2[j]);
+            slot[j] = (size_t)hash_key(key[j]) & g->mask;
+#if defined(__GNUC__)
+            __builtin_prefetch(&g->table[slot[j]], 1);
+#endif
         }
+        for (size_t j = 0; j < b; ++j)
+            if (!insert(g, key[j], slot[j], (uint32_t)(i0 + j), d2[j], &count))
+                return count + 1; /* more than limit: "too many" */
     }
     g->complete = 1;
     return count;
