@@ -31,6 +31,10 @@ extern const size_t pkss__kernel_source_size;
  * PKSS_CL_VECTOR_WIDTH (1, 2, 4, 8 or 16) overrides the lanes, e.g. to
  * test the GPU code path on a CPU. */
 #define PKSS_VW_CPU 16
+#define PKSS_WG_SCORE_CPU 8    /* a group runs on one core (PoCL) */
+#define PKSS_WG_BIN_CPU 8
+#define PKSS_WG_SCORE_GPU 128  /* a multiple of SIMT widths 32 and 64 */
+#define PKSS_WG_BIN_GPU 64     /* fewer binning items than scoring ones */
 
 typedef struct cl_buf {
     cl_mem mem;
@@ -253,7 +257,8 @@ static pkss_status group_shape(pkss_context *ctx, struct pkss__device *d,
                                cl_device_type type, size_t max_wg)
 {
     int cpu = (type & CL_DEVICE_TYPE_CPU) != 0;
-    size_t want_s = cpu ? 8 : 128, want_b = cpu ? 8 : 64;
+    size_t want_s = cpu ? PKSS_WG_SCORE_CPU : PKSS_WG_SCORE_GPU;
+    size_t want_b = cpu ? PKSS_WG_BIN_CPU : PKSS_WG_BIN_GPU;
     d->vw = cpu ? PKSS_VW_CPU : 1;
     const char *vw_env = getenv("PKSS_CL_VECTOR_WIDTH");
     if (vw_env && vw_env[0]) {
