@@ -44,6 +44,11 @@
       (cl_program, cl_device_id, cl_program_build_info, size_t, void *,        \
        size_t *))                                                              \
     X(cl_int, ReleaseProgram, (cl_program))                                    \
+    X(cl_program, CreateProgramWithBinary,                                     \
+      (cl_context, cl_uint, const cl_device_id *, const size_t *,              \
+       const unsigned char **, cl_int *, cl_int *))                            \
+    X(cl_int, GetProgramInfo,                                                  \
+      (cl_program, cl_program_info, size_t, void *, size_t *))                 \
     X(cl_kernel, CreateKernel, (cl_program, const char *, cl_int *))           \
     X(cl_int, ReleaseKernel, (cl_kernel))                                      \
     X(cl_int, GetKernelWorkGroupInfo,                                          \
@@ -100,6 +105,8 @@ const char *pkss__cl_load_error(void);
 #define clBuildProgram pkss__cl.BuildProgram
 #define clGetProgramBuildInfo pkss__cl.GetProgramBuildInfo
 #define clReleaseProgram pkss__cl.ReleaseProgram
+#define clCreateProgramWithBinary pkss__cl.CreateProgramWithBinary
+#define clGetProgramInfo pkss__cl.GetProgramInfo
 #define clCreateKernel pkss__cl.CreateKernel
 #define clReleaseKernel pkss__cl.ReleaseKernel
 #define clGetKernelWorkGroupInfo pkss__cl.GetKernelWorkGroupInfo
