@@ -26,6 +26,44 @@
  * up to rounding */
 #define PKSS_MIN_EXTENT 1e-9
 
+/* ---- Thinning (preshape/thin.c) --------------------------------------- */
+/* bits per axis of a packed voxel key */
+#define THIN_BITS 21
+/* most passes of the voxel-size search */
+#define THIN_MAX_PASSES 40
+/* the voxel set holds about this many times target keys: counts beyond
+ * only tell the search "too many", so its memory follows target, not n */
+#define THIN_TRACK 3.5
+/* most keys per slot of the open-addressing set (linear probing stays
+ * short below ~0.7): 2^20 slots (16 MiB) at the default target */
+#define THIN_LOAD 0.7
+/* a count within target / THIN_CLOSE of target ends the search (5 %) */
+#define THIN_CLOSE 20
+/* points whose slots are prefetched before any is inserted: the set is
+ * far larger than the caches */
+#define THIN_BATCH 16
+
+/* ---- Outlier culling (preshape/cull.c; k = PKSS_KNN_K) ---------------- */
+/* statistical filter (SPEC 2.3): far (d_i > STAT_FAR s_i) and off the
+ * local plane (h_i > STAT_OFF_PLANE s_i; SPEC: 1.5), or sparse
+ * (rho_i < STAT_SPARSE N / V): more box outliers go, no surface loss */
+#define STAT_FAR 2.0
+#define STAT_OFF_PLANE 2.0
+#define STAT_SPARSE 0.1
+/* the density box: from the 0.5 % to the 99.5 % quantile, each side at
+ * least this share of the longest (flat scans) */
+#define STAT_QUANTILE 0.005
+#define STAT_MIN_SIDE 0.02
+
+/* ---- Resampling and kd-trees (preshape/resample.c, common/knn.c) ------ */
+/* leaf size of the FPS bounding-volume tree (speed only) */
+#define FPS_LEAF 32
+/* kd-tree leaf size: ~4 % faster ICP queries than 10 (speed only) */
+#define PKSS_KD_LEAF 16
+/* a bound is "strictly farther" only beyond this relative slack: the
+ * incremental box distance may exceed the exact one by a few ulps */
+#define PKSS_KD_SLACK (1.0 - 0x1.0p-40)
+
 /* ---- Features (preshape/cloud.c) -------------------------------------- */
 /* k of the PCA neighbourhood (Eq. 3) for D_pca and the normals */
 #define PKSS_KNN_K 12
@@ -144,6 +182,16 @@
 #define PKSS_SCHEDULE_SETTLE {.gate_start = 5.0, .rigid_iters = 10, .max_iters = 10}
 /* the slide search's polish: point-to-plane steps only, from the shift */
 #define PKSS_SCHEDULE_POLISH {.gate_start = ICP_GATE_FLOOR, .plane_iters = 30}
+
+/* ---- OpenCL lanes and work-groups (search/evaluate_cl.c:group_shape) --- */
+/* lanes per work-item on CPUs (AVX-512: 16 floats); 1 on GPUs (SIMT) */
+#define PKSS_VW_CPU 16
+/* CPU groups: a group runs on one core (PoCL needs 8-64) */
+#define PKSS_WG_SCORE_CPU 8
+#define PKSS_WG_BIN_CPU 8
+/* GPU groups: a multiple of SIMT widths 32 and 64; fewer binning items */
+#define PKSS_WG_SCORE_GPU 128
+#define PKSS_WG_BIN_GPU 64
 
 /* ---- Threads and progress (common/) ----------------------------------- */
 /* queries below which the second thread costs more than it saves */

@@ -28,14 +28,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* Leaf size: the ICP's nearest-neighbour queries (half of a registration's
- * CPU time) ran ~4 % faster with 16 than with 10 (per-pair minimum of 6
- * runs over 28 registrations); results do not depend on it. */
-#define PKSS_KD_LEAF 16
-/* A bound is "strictly farther" only beyond this relative slack: the
- * incremental box distance may exceed the exactly computed point distance
- * by a few ulps. */
-#define PKSS_KD_SLACK (1.0 - 0x1.0p-40)
 
 typedef struct kd_node {
     double cut_lo;    /* inner: largest coordinate of the left child on dim */

@@ -49,12 +49,6 @@
 #include <math.h>
 #include <string.h>
 
-#define STAT_K 12
-#define STAT_FAR 2.0        /* d_i > STAT_FAR * s_i */
-#define STAT_OFF_PLANE 2.0  /* h_i > STAT_OFF_PLANE * s_i (SPEC: 1.5) */
-#define STAT_SPARSE 0.1     /* rho_i < STAT_SPARSE * N / V */
-#define STAT_QUANTILE 0.005 /* box from the 0.5 % to the 99.5 % quantile */
-#define STAT_MIN_SIDE 0.02  /* box side >= this * longest side */
 
 /* ------------------------------------------------------------ graph */
 
@@ -312,7 +306,7 @@ static double plane_distance(const double *xyz, const uint32_t *nb, size_t m,
 pkss_status pkss__cull_stat(const double *xyz, size_t n, unsigned char *keep,
                             pkss__knn_graph *graph)
 {
-    const size_t k = STAT_K;
+    const size_t k = PKSS_KNN_K;
     if (!xyz || !keep)
         return PKSS_ERR_NULL_ARGUMENT;
     if (n == 0)
@@ -351,7 +345,7 @@ pkss_status pkss__cull_stat(const double *xyz, size_t n, unsigned char *keep,
             continue;
         }
         /* median of the neighbours' mean distances */
-        double v[STAT_K];
+        double v[PKSS_KNN_K];
         for (size_t a = 0; a < k; ++a) {
             double x = dm[nb[a]];
             size_t b = a;
@@ -366,7 +360,7 @@ pkss_status pkss__cull_stat(const double *xyz, size_t n, unsigned char *keep,
             continue;
         /* the plane of the neighbours that pass the first test themselves
          * (d_j <= 2 s_i); all of them if fewer than 3 do */
-        uint32_t sub[STAT_K];
+        uint32_t sub[PKSS_KNN_K];
         size_t ns = 0;
         for (size_t a = 0; a < k; ++a)
             if (dm[nb[a]] <= STAT_FAR * s)

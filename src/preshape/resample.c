@@ -29,7 +29,6 @@
 #include <math.h>
 #include <string.h>
 
-#define FPS_LEAF 32
 
 typedef struct fps_node {
     double lo[3], hi[3];  /* tight box of the node's points */

@@ -22,20 +22,8 @@
 #include <math.h>
 #include <string.h>
 
-#define THIN_BITS 21
 #define THIN_CELLS ((double)(1u << (THIN_BITS - 1))) /* extent / h max */
 #define THIN_EMPTY UINT64_MAX
-#define THIN_MAX_PASSES 40
-/* The voxel set holds up to about this many times target keys: counts
- * beyond only tell the search "too many" (it needs exact counts near
- * target), so its memory follows target, not n. */
-#define THIN_TRACK 3.5
-/* Most keys per slot of the open-addressing set (linear probing stays
- * short below ~0.7); with THIN_TRACK it makes the set 2^20 slots (16 MiB)
- * for the default target of 200 000. */
-#define THIN_LOAD 0.7
-/* A count within target / THIN_CLOSE of target ends the search. */
-#define THIN_CLOSE 20
 
 /* One slot: a voxel key and, for the voxel, the point closest to its
  * centre so far (one cache line holds four slots, so a point costs one
@@ -92,10 +80,6 @@ static inline uint64_t voxel_key(const thin_grid *g, const double *p,
     return (c[0] << (2 * THIN_BITS)) | (c[1] << THIN_BITS) | c[2];
 }
 
-/* Points whose keys are computed (and slots prefetched) before any of
- * them is inserted: the set is far larger than the caches, so a point's
- * probe is a memory access that is better issued early. */
-#define THIN_BATCH 16
 
 /* Inserts one point's key; 0 when the set is full (count == limit). */
 static inline int insert(thin_grid *g, uint64_t key, size_t s, uint32_t i,

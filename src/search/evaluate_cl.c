@@ -27,14 +27,9 @@ extern const char pkss__kernel_source[];
 extern const size_t pkss__kernel_source_size;
 
 /* Lanes per work-item (PKSS_VW in kernels/pkss_shared.h) and work-group
- * sizes are chosen in one place, group_shape(). The environment variable
+ * sizes (src/tuning.h) are chosen in one place, group_shape(). The environment variable
  * PKSS_CL_VECTOR_WIDTH (1, 2, 4, 8 or 16) overrides the lanes, e.g. to
  * test the GPU code path on a CPU. */
-#define PKSS_VW_CPU 16
-#define PKSS_WG_SCORE_CPU 8    /* a group runs on one core (PoCL) */
-#define PKSS_WG_BIN_CPU 8
-#define PKSS_WG_SCORE_GPU 128  /* a multiple of SIMT widths 32 and 64 */
-#define PKSS_WG_BIN_GPU 64     /* fewer binning items than scoring ones */
 
 typedef struct cl_buf {
     cl_mem mem;
