@@ -19,6 +19,8 @@
     X(PKSS_ERR_UNKNOWN_PARAMETER, "The parameter identifier is not known.")    \
     X(PKSS_ERR_WRONG_PARAMETER_TYPE, "The parameter has another type than the setter used.") \
     X(PKSS_ERR_CANCELLED, "The progress callback cancelled the call.")         \
+    X(PKSS_ERR_CORRUPT_DATA, "The serialised data is truncated, corrupt or not a pkss cloud.") \
+    X(PKSS_ERR_STALE_DATA, "The serialised cloud comes from another library version or other parameters.") \
     X(PKSS_ERR_OUT_OF_MEMORY, "Memory allocation failed.")                     \
     X(PKSS_ERR_NO_DEVICE, "No OpenCL device is available.")                    \
     X(PKSS_ERR_DEVICE, "An OpenCL call failed.")                               \

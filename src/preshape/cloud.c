@@ -411,6 +411,7 @@ pkss_status pkss__cloud_build(pkss_context *ctx, const double *xyz, size_t n,
     pkss_cloud *c = pkss__calloc(1, sizeof *c);
     PKSS_RETURN_IF(!c, ctx, PKSS_ERR_OUT_OF_MEMORY, "out of memory");
     c->counts.input = n;
+    c->prep = *p;
     const double *in = NULL;
     double *pts = NULL;
     size_t np = 0;
