@@ -765,7 +765,7 @@ class Cloud:
         # (pre-processing is lossy), so there is no faithful pickle.
         raise TypeError("pkss.Cloud cannot be pickled; it holds pre-processed C data: pickle "
                         "the input points (or cloud.points) and the Context, and call "
-                        "Context.prepare_cloud() again")
+                        "Context.prepare_cloud() again, or use pkss.PreparedCloud, which pickles")
 
     def __len__(self) -> int:
         with self._lock:
@@ -1239,3 +1239,8 @@ def devices() -> DeviceList:
                           bool(d.is_gpu), bool(d.has_fp64), int(d.compute_units),
                           int(d.global_mem_bytes)))
     return out
+
+
+# Many pairs (pkss/batch.py): imported last, it builds on the names above.
+from .batch import Match, PairResult, PreparedCloud, identify, register_many  # noqa: E402
+__all__ += ["PreparedCloud", "register_many", "identify", "PairResult", "Match"]
