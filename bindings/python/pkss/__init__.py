@@ -106,6 +106,11 @@ class Error(Exception):
     def __str__(self) -> str:
         return "%s: %s" % (self.name, self.detail or status_string(self.status))
 
+    def __reduce__(self) -> Any:
+        # explicit, so that tblib's exception pickling (installed by Dask)
+        # uses it too: its fallback cannot rebuild a MemoryError subclass
+        return (type(self), (self.status, self.detail))
+
     @staticmethod
     def class_for(status: int) -> type:
         """The subclass raised for a status code."""
