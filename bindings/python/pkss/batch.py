@@ -236,17 +236,27 @@ _per_thread = threading.local()
 _stats = {"prepared": 0, "restored": 0}
 
 
+# File hashes by (path, size, mtime, inode): a template file is hashed once
+# per process, not once per pair, unless it changes.
+_file_hashes: Dict[Tuple[Any, ...], str] = {}
+
+
 def _content_key(obj: Any) -> Tuple[str, ...]:
     """A key for a template's content: file bytes, array values or the
     prepared cloud's bytes (hashed)."""
     if isinstance(obj, PreparedCloud):
         return ("prepared", obj.content_hash)
     if isinstance(obj, (str, os.PathLike)):
-        h = hashlib.sha256()
-        with open(obj, "rb") as f:
-            for block in iter(lambda: f.read(1 << 20), b""):
-                h.update(block)
-        return ("file", h.hexdigest())
+        st = os.stat(obj)
+        stamp = (os.path.abspath(obj), st.st_size, st.st_mtime_ns, st.st_ino)
+        digest = _file_hashes.get(stamp)
+        if digest is None:
+            h = hashlib.sha256()
+            with open(obj, "rb") as f:
+                for block in iter(lambda: f.read(1 << 20), b""):
+                    h.update(block)
+            digest = _file_hashes[stamp] = h.hexdigest()
+        return ("file", digest)
     a = _as_points(obj, "template", finite=False)
     return ("array", hashlib.sha256(a.tobytes()).hexdigest() + str(a.shape))
 
