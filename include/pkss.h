@@ -13,6 +13,7 @@
  *   Progress     -- a callback that reports progress and can cancel
  *   Clouds       -- a cloud prepared once and registered against many
  *   Evaluation   -- pkss_register(), its result and its candidates
+ *   Batches      -- serialised clouds, one source against many templates
  *
  * COMPATIBILITY (docs/compatibility.md): within 1.x nothing declared here is
  * removed, renumbered or changes meaning. Structs that may grow start with
@@ -119,6 +120,11 @@ typedef enum pkss_status {
     PKSS_ERR_CANCELLED = 10,       /* the progress callback asked to stop */
     PKSS_ERR_FORMAT = 11,          /* a file's content is malformed or truncated */
     PKSS_ERR_UNSUPPORTED_FORMAT = 12, /* a valid file variant no reader handles */
+    PKSS_ERR_CORRUPT_DATA = 13,    /* serialised bytes truncated, corrupt or
+                                      not a pkss cloud (see detail) */
+    PKSS_ERR_STALE_DATA = 14,      /* serialised by another library version or
+                                      format, or prepared under other
+                                      parameters (see detail) */
     PKSS_ERR_OUT_OF_MEMORY = 100,
     PKSS_ERR_IO = 101,             /* a file cannot be opened, read or written */
     PKSS_ERR_NO_DEVICE = 200,      /* no OpenCL platform/device available */
@@ -543,6 +549,71 @@ PKSS_API pkss_status pkss_register_clouds(pkss_context *ctx,
                                           const pkss_cloud *source,
                                           const pkss_cloud *target,
                                           pkss_result *result);
+
+/* ===================================================================== */
+/* Batches: serialised clouds and template retrieval                      */
+/* ===================================================================== */
+/* A template library is prepared once, serialised, shipped to workers or
+ * cached on disk, and restored without repeating the pre-processing. */
+
+/** pkss_cloud_serialize() :
+ *  Writes `cloud` into buf (capacity bytes), zstd style: with buf NULL (or
+ *  capacity too small) only *needed is set. The bytes are self-describing
+ *  and portable (little-endian throughout): magic "PKSSCLD", format
+ *  version, library version, the pre-processing parameters the cloud was
+ *  prepared under, sizes, and an FNV-1a 64 checksum over everything after
+ *  it. The kd-trees are not stored (rebuilt on load, deterministically).
+ *  Thread-safe for concurrent readers of one cloud.
+ *  @return PKSS_OK (bytes written, *needed = their count),
+ *          PKSS_ERR_NULL_ARGUMENT (cloud or needed), or
+ *          PKSS_ERR_INVALID_ARGUMENT when buf is not NULL and capacity <
+ *          *needed (nothing written). */
+PKSS_API pkss_status pkss_cloud_serialize(const pkss_cloud *cloud, void *buf,
+                                          size_t capacity, size_t *needed);
+
+/** pkss_cloud_deserialize() :
+ *  Restores a cloud from the bytes of pkss_cloud_serialize(). Registering
+ *  with it gives bit for bit the result of registering with the original.
+ *  The bytes must come from this exact library version (preparation may
+ *  change numerically in any release) and the cloud must have been
+ *  prepared under the pre-processing parameters of ctx (points,
+ *  cull_mutual, cull_stat, use_features, feature_frac, seed,
+ *  max_raw_points, drop_nonfinite, min_points): otherwise a registration
+ *  would mix two preparations. The input is only read and may be hostile.
+ *  @return PKSS_OK; PKSS_ERR_NULL_ARGUMENT; PKSS_ERR_CORRUPT_DATA (not a
+ *          pkss cloud, truncated, checksum mismatch, or inconsistent
+ *          fields; the detail says which); PKSS_ERR_STALE_DATA (another
+ *          format or library version, or another value of a parameter,
+ *          named in the detail); PKSS_ERR_OUT_OF_MEMORY. *out is NULL on
+ *          failure. */
+PKSS_API pkss_status pkss_cloud_deserialize(pkss_context *ctx, const void *buf,
+                                            size_t size, pkss_cloud **out);
+
+/** pkss_register_templates() :
+ *  Registers one prepared source against n prepared templates (retrieval:
+ *  which template does the source show, and in what pose). results[i]
+ *  (each initialised with pkss_result_init) receives exactly what
+ *  pkss_register_clouds(ctx, source, templates[i], &results[i]) gives, bit
+ *  for bit. order (n entries, may be NULL) receives the template indices
+ *  ranked best first: by fit, then overlap, both descending, then index
+ *  ascending; templates whose registration failed come last, in index
+ *  order. status (n entries, may be NULL) receives each template's
+ *  status; a failed template's result holds no pose (n_candidates = 0).
+ *  Afterwards ctx holds the candidates of the last template registered.
+ *  The progress callback sees each template's registration in turn.
+ *  @return PKSS_OK when every template was tried (some may have failed:
+ *          see status; the context detail holds the first such failure,
+ *          prefixed "template i: "); PKSS_ERR_NULL_ARGUMENT,
+ *          PKSS_ERR_INVALID_ARGUMENT (n = 0, a NULL template or a bad
+ *          struct_size), or a status that stops the batch
+ *          (PKSS_ERR_CANCELLED, PKSS_ERR_OUT_OF_MEMORY, device statuses),
+ *          which sets order to SIZE_MAX and clears the untried results. */
+PKSS_API pkss_status pkss_register_templates(pkss_context *ctx,
+                                             const pkss_cloud *source,
+                                             const pkss_cloud *const *templates,
+                                             size_t n, pkss_result *results,
+                                             pkss_status *status,
+                                             size_t *order);
 
 /* PKSS_CDEF_END */
 

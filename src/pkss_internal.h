@@ -259,6 +259,8 @@ struct pkss_cloud {
     double spacing_coarse;
     double prep_seconds;
     double validate_seconds;
+    /* the parameters it was prepared under (cloud_bytes.c checks them) */
+    pkss__params prep;
 };
 
 pkss_status pkss__cloud_build(pkss_context *ctx, const double *xyz, size_t n,

@@ -162,7 +162,8 @@ static void test_null_and_status_strings(void **state)
                                PKSS_ERR_DEGENERATE, PKSS_ERR_OUT_OF_RANGE,
                                PKSS_ERR_UNKNOWN_PARAMETER, PKSS_ERR_WRONG_PARAMETER_TYPE,
                                PKSS_ERR_CANCELLED, PKSS_ERR_FORMAT,
-                               PKSS_ERR_UNSUPPORTED_FORMAT,
+                               PKSS_ERR_UNSUPPORTED_FORMAT, PKSS_ERR_CORRUPT_DATA,
+                               PKSS_ERR_STALE_DATA,
                                PKSS_ERR_OUT_OF_MEMORY, PKSS_ERR_IO, PKSS_ERR_NO_DEVICE, PKSS_ERR_DEVICE,
                                PKSS_ERR_KERNEL_BUILD, PKSS_ERR_UNSUPPORTED,
                                PKSS_ERR_NO_CONSENSUS, PKSS_ERR_INTERNAL};

@@ -58,7 +58,7 @@ done
 echo "== [5/6] Python bindings (pip install) + pytest"
 python3 -m venv build/venv
 build/venv/bin/python -m pip install -q --upgrade pip
-build/venv/bin/python -m pip install -q ./bindings/python pytest
+build/venv/bin/python -m pip install -q "./bindings/python[batch]" pytest
 build/venv/bin/python -m pytest bindings/python/tests -q
 # sdist, auditwheel-repaired wheel and editable install, each in a fresh venv
 bash tests/package/python_routes.sh build/python-routes

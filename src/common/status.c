@@ -21,6 +21,8 @@
     X(PKSS_ERR_CANCELLED, "The progress callback cancelled the call.")         \
     X(PKSS_ERR_FORMAT, "The file's content is malformed or truncated.")       \
     X(PKSS_ERR_UNSUPPORTED_FORMAT, "The file is of a valid variant that no reader handles.") \
+    X(PKSS_ERR_CORRUPT_DATA, "The serialised data is truncated, corrupt or not a pkss cloud.") \
+    X(PKSS_ERR_STALE_DATA, "The serialised cloud comes from another library version or other parameters.") \
     X(PKSS_ERR_OUT_OF_MEMORY, "Memory allocation failed.")                     \
     X(PKSS_ERR_IO, "A file cannot be opened, read or written.")               \
     X(PKSS_ERR_NO_DEVICE, "No OpenCL device is available.")                    \

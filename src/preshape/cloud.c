@@ -599,6 +599,7 @@ pkss_status pkss__cloud_build(pkss_context *ctx, const double *xyz, size_t n,
               NULL, NULL, 0, NULL, NULL};
     PKSS_RETURN_IF(!w.c, ctx, PKSS_ERR_OUT_OF_MEMORY, "out of memory");
     w.c->counts.input = n;
+    w.c->prep = ctx->params; /* what the cloud was prepared under (cloud_bytes.c) */
     pkss_status st = validate(ctx, xyz, n, which, &w.in, &w.pts, &w.np,
                               &w.c->counts.nonfinite);
     double t1 = pkss__now();

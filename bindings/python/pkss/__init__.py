@@ -114,6 +114,11 @@ class Error(Exception):
     def __str__(self) -> str:
         return "%s: %s" % (self.name, self.detail or status_string(self.status))
 
+    def __reduce__(self) -> Any:
+        # explicit, so that tblib's exception pickling (installed by Dask)
+        # uses it too: its fallback cannot rebuild a MemoryError subclass
+        return (type(self), (self.status, self.detail))
+
     @staticmethod
     def class_for(status: int) -> type:
         """The subclass raised for a status code."""
@@ -777,7 +782,7 @@ class Cloud:
         # (pre-processing is lossy), so there is no faithful pickle.
         raise TypeError("pkss.Cloud cannot be pickled; it holds pre-processed C data: pickle "
                         "the input points (or cloud.points) and the Context, and call "
-                        "Context.prepare_cloud() again")
+                        "Context.prepare_cloud() again, or use pkss.PreparedCloud, which pickles")
 
     def __len__(self) -> int:
         with self._lock:
@@ -1254,3 +1259,6 @@ def devices() -> DeviceList:
 
 
 from .io import FileError, read_points, write_points  # noqa: E402  (uses the above)
+# Many pairs (pkss/batch.py): imported last, it builds on the names above.
+from .batch import Match, PairResult, PreparedCloud, identify, register_many  # noqa: E402
+__all__ += ["PreparedCloud", "register_many", "identify", "PairResult", "Match"]

@@ -413,7 +413,9 @@ def test_every_status_maps_to_an_exception_class():
         assert isinstance(err, pkss.Cancelled) == cancelled
         assert isinstance(err, ValueError) == (value < 100 and not cancelled)
         assert isinstance(err, pkss.DeviceError) == (200 <= value < 300)
-        assert isinstance(err, MemoryError) == (100 <= value < 200)
+        io = value == _lib.lib.PKSS_ERR_IO  # a file, not memory
+        assert isinstance(err, MemoryError) == (100 <= value < 200 and not io)
+        assert isinstance(err, pkss.FileError) == io
         copy = pickle.loads(pickle.dumps(err))
         assert (type(copy), copy.status, copy.detail) == (type(err), value, "some detail")
     assert pkss.status_name(12345) == "PKSS_UNKNOWN_STATUS"
