@@ -112,105 +112,113 @@ static pkss_status parse_descr(io_ctx *ctx, const char *d, size_t len, npy_heade
                    io_quote(d, len, q, sizeof q));
 }
 
-/* Parses {'descr': '<f8', 'fortran_order': False, 'shape': (N, 3), }. */
-static pkss_status parse_header(io_ctx *ctx, const char *text, size_t len, npy_header *h)
+/* The value of 'descr': a quoted dtype string (a list is a structured
+ * dtype, refused by name). */
+static pkss_status npy_descr_value(io_ctx *ctx, npy_scan *s, npy_header *h)
 {
-    npy_scan s = {text, text + len};
-    int seen = 0; /* bits: 1 descr, 2 fortran_order, 4 shape */
+    const char *d;
+    size_t dl;
+    if (s->p < s->end && *s->p == '[')
+        return io_fail(ctx, PKSS_ERR_UNSUPPORTED_FORMAT,
+                       "NPY: structured dtype (a list descr) is not supported; save "
+                       "an (N, 3) float array");
+    if (scan_string(s, &d, &dl) != 0)
+        return io_fail(ctx, PKSS_ERR_FORMAT, "NPY: 'descr' is not a quoted string");
+    return parse_descr(ctx, d, dl, h);
+}
+
+/* The value of 'fortran_order': True or False. */
+static pkss_status npy_fortran_value(io_ctx *ctx, npy_scan *s, npy_header *h)
+{
+    const char *w;
+    size_t wl = scan_word(s, &w);
     char q[64];
-    if (memchr(text, '\0', len))
-        return io_fail(ctx, PKSS_ERR_FORMAT, "NPY: the header holds a NUL byte");
-    if (scan_char(&s, '{') != 0)
-        return io_fail(ctx, PKSS_ERR_FORMAT, "NPY: the header is not a dict ('{' expected)");
+    if (io_tok_eq(w, wl, "True"))
+        h->fortran = 1;
+    else if (io_tok_eq(w, wl, "False"))
+        h->fortran = 0;
+    else
+        return io_fail(ctx, PKSS_ERR_FORMAT,
+                       "NPY: 'fortran_order' is '%s', not True or False",
+                       io_quote(w, wl, q, sizeof q));
+    return PKSS_OK;
+}
+
+/* The value of 'shape': a tuple of dimensions; the first two are kept and
+ * ndim counts up to 64 (enough to name the wrong rank in a message). */
+static pkss_status npy_shape_value(io_ctx *ctx, npy_scan *s, npy_header *h)
+{
+    const char *w;
+    size_t wl;
+    char q[64];
+    if (scan_char(s, '(') != 0)
+        return io_fail(ctx, PKSS_ERR_FORMAT, "NPY: 'shape' is not a tuple");
+    h->ndim = 0;
     for (;;) {
-        const char *key, *w;
-        size_t klen, wl;
-        int bit;
-        skip_ws(&s);
-        if (scan_char(&s, '}') == 0)
+        uint64_t v;
+        if (scan_char(s, ')') == 0)
             break;
-        if (scan_string(&s, &key, &klen) != 0)
+        wl = scan_word(s, &w);
+        if (wl > 0 && w[wl - 1] == 'L') /* Python 2 long */
+            wl--;
+        if (wl == 0 || io_parse_u64(w, wl, &v) != 0)
             return io_fail(ctx, PKSS_ERR_FORMAT,
-                           "NPY: header byte %llu: a quoted key or '}' expected",
-                           (unsigned long long)(s.p - text));
-        if (io_tok_eq(key, klen, "descr"))
-            bit = 1;
-        else if (io_tok_eq(key, klen, "fortran_order"))
-            bit = 2;
-        else if (io_tok_eq(key, klen, "shape"))
-            bit = 4;
-        else
-            return io_fail(ctx, PKSS_ERR_FORMAT, "NPY: unknown header key '%s'",
-                           io_quote(key, klen, q, sizeof q));
-        if (seen & bit)
-            return io_fail(ctx, PKSS_ERR_FORMAT, "NPY: header key '%s' given twice",
-                           io_quote(key, klen, q, sizeof q));
-        seen |= bit;
-        if (scan_char(&s, ':') != 0)
-            return io_fail(ctx, PKSS_ERR_FORMAT, "NPY: ':' expected after '%s'",
-                           io_quote(key, klen, q, sizeof q));
-        skip_ws(&s);
-        if (bit == 1) {
-            const char *d;
-            size_t dl;
-            pkss_status st;
-            if (s.p < s.end && *s.p == '[')
-                return io_fail(ctx, PKSS_ERR_UNSUPPORTED_FORMAT,
-                               "NPY: structured dtype (a list descr) is not supported; save "
-                               "an (N, 3) float array");
-            if (scan_string(&s, &d, &dl) != 0)
-                return io_fail(ctx, PKSS_ERR_FORMAT, "NPY: 'descr' is not a quoted string");
-            st = parse_descr(ctx, d, dl, h);
-            if (st != PKSS_OK)
-                return st;
-        } else if (bit == 2) {
-            wl = scan_word(&s, &w);
-            if (io_tok_eq(w, wl, "True"))
-                h->fortran = 1;
-            else if (io_tok_eq(w, wl, "False"))
-                h->fortran = 0;
-            else
+                           "NPY: 'shape' holds '%s', not a dimension",
+                           io_quote(w, wl, q, sizeof q));
+        if (h->ndim < 2)
+            h->shape[h->ndim] = v;
+        if (h->ndim < 64)
+            h->ndim++;
+        if (scan_char(s, ',') != 0) {
+            if (scan_char(s, ')') != 0)
                 return io_fail(ctx, PKSS_ERR_FORMAT,
-                               "NPY: 'fortran_order' is '%s', not True or False",
-                               io_quote(w, wl, q, sizeof q));
-        } else {
-            if (scan_char(&s, '(') != 0)
-                return io_fail(ctx, PKSS_ERR_FORMAT, "NPY: 'shape' is not a tuple");
-            h->ndim = 0;
-            for (;;) {
-                uint64_t v;
-                if (scan_char(&s, ')') == 0)
-                    break;
-                wl = scan_word(&s, &w);
-                if (wl > 0 && w[wl - 1] == 'L') /* Python 2 long */
-                    wl--;
-                if (wl == 0 || io_parse_u64(w, wl, &v) != 0)
-                    return io_fail(ctx, PKSS_ERR_FORMAT,
-                                   "NPY: 'shape' holds '%s', not a dimension",
-                                   io_quote(w, wl, q, sizeof q));
-                if (h->ndim < 2)
-                    h->shape[h->ndim] = v;
-                if (h->ndim < 64)
-                    h->ndim++;
-                if (scan_char(&s, ',') != 0) {
-                    if (scan_char(&s, ')') != 0)
-                        return io_fail(ctx, PKSS_ERR_FORMAT,
-                                       "NPY: 'shape': ',' or ')' expected");
-                    break;
-                }
-            }
-        }
-        if (scan_char(&s, ',') != 0) {
-            if (scan_char(&s, '}') != 0)
-                return io_fail(ctx, PKSS_ERR_FORMAT,
-                               "NPY: header byte %llu: ',' or '}' expected",
-                               (unsigned long long)(s.p - text));
+                               "NPY: 'shape': ',' or ')' expected");
             break;
         }
     }
-    skip_ws(&s);
-    if (s.p != s.end)
-        return io_fail(ctx, PKSS_ERR_FORMAT, "NPY: text after the header dict");
+    return PKSS_OK;
+}
+
+/* One "'key': value" entry; *seen collects the keys read (bits: 1 descr,
+ * 2 fortran_order, 4 shape) so that none is given twice. */
+static pkss_status npy_entry(io_ctx *ctx, npy_scan *s, const char *text, int *seen,
+                             npy_header *h)
+{
+    const char *key;
+    size_t klen;
+    int bit;
+    char q[64];
+    if (scan_string(s, &key, &klen) != 0)
+        return io_fail(ctx, PKSS_ERR_FORMAT,
+                       "NPY: header byte %llu: a quoted key or '}' expected",
+                       (unsigned long long)(s->p - text));
+    if (io_tok_eq(key, klen, "descr"))
+        bit = 1;
+    else if (io_tok_eq(key, klen, "fortran_order"))
+        bit = 2;
+    else if (io_tok_eq(key, klen, "shape"))
+        bit = 4;
+    else
+        return io_fail(ctx, PKSS_ERR_FORMAT, "NPY: unknown header key '%s'",
+                       io_quote(key, klen, q, sizeof q));
+    if (*seen & bit)
+        return io_fail(ctx, PKSS_ERR_FORMAT, "NPY: header key '%s' given twice",
+                       io_quote(key, klen, q, sizeof q));
+    *seen |= bit;
+    if (scan_char(s, ':') != 0)
+        return io_fail(ctx, PKSS_ERR_FORMAT, "NPY: ':' expected after '%s'",
+                       io_quote(key, klen, q, sizeof q));
+    skip_ws(s);
+    if (bit == 1)
+        return npy_descr_value(ctx, s, h);
+    if (bit == 2)
+        return npy_fortran_value(ctx, s, h);
+    return npy_shape_value(ctx, s, h);
+}
+
+/* After the dict: all three keys, and a shape of (N, 3). */
+static pkss_status npy_check_keys(io_ctx *ctx, int seen, const npy_header *h)
+{
     if (seen != 7)
         return io_fail(ctx, PKSS_ERR_FORMAT, "NPY: the header lacks '%s'",
                        !(seen & 1) ? "descr" : !(seen & 2) ? "fortran_order" : "shape");
@@ -224,6 +232,37 @@ static pkss_status parse_header(io_ctx *ctx, const char *text, size_t len, npy_h
                        h->ndim);
     }
     return PKSS_OK;
+}
+
+/* Parses {'descr': '<f8', 'fortran_order': False, 'shape': (N, 3), }. */
+static pkss_status parse_header(io_ctx *ctx, const char *text, size_t len, npy_header *h)
+{
+    npy_scan s = {text, text + len};
+    int seen = 0;
+    if (memchr(text, '\0', len))
+        return io_fail(ctx, PKSS_ERR_FORMAT, "NPY: the header holds a NUL byte");
+    if (scan_char(&s, '{') != 0)
+        return io_fail(ctx, PKSS_ERR_FORMAT, "NPY: the header is not a dict ('{' expected)");
+    for (;;) {
+        pkss_status st;
+        skip_ws(&s);
+        if (scan_char(&s, '}') == 0)
+            break;
+        st = npy_entry(ctx, &s, text, &seen, h);
+        if (st != PKSS_OK)
+            return st;
+        if (scan_char(&s, ',') != 0) {
+            if (scan_char(&s, '}') != 0)
+                return io_fail(ctx, PKSS_ERR_FORMAT,
+                               "NPY: header byte %llu: ',' or '}' expected",
+                               (unsigned long long)(s.p - text));
+            break;
+        }
+    }
+    skip_ws(&s);
+    if (s.p != s.end)
+        return io_fail(ctx, PKSS_ERR_FORMAT, "NPY: text after the header dict");
+    return npy_check_keys(ctx, seen, h);
 }
 
 pkss_status io_read_npy(io_ctx *ctx, double **xyz, size_t *n)
@@ -362,157 +401,234 @@ static int name_is(const zip_entry *e, const char *array, size_t alen)
             memcmp(e->name + alen, ".npy", 4) == 0);
 }
 
-pkss_status io_read_npz(io_ctx *ctx, double **xyz, size_t *n)
+/* The end-of-central-directory record: 22 bytes plus a comment of up to
+ * 64 KB, whose length must reach the end of the file. */
+static pkss_status npz_find_eocd(io_ctx *ctx, size_t *eocd)
 {
     const unsigned char *d = ctx->data;
-    size_t size = ctx->size, eocd = 0, p, lo, k;
-    uint64_t entries, cd_size, cd_off;
-    zip_entry pick, first;
-    size_t found = 0, members = 0, npick = 0;
-    char names[256], q[64], msg[1024];
-    size_t names_len = 0;
-    int have = 0;
-
+    size_t size = ctx->size, p, lo;
     if (size < 22)
         return io_fail(ctx, PKSS_ERR_FORMAT,
                        "NPZ: truncated: %llu bytes cannot hold a zip directory",
                        (unsigned long long)size);
-    /* End of central directory: 22 bytes plus a comment of up to 64 KB. */
     lo = size > 22 + 65535 ? size - 22 - 65535 : 0;
     for (p = size - 22 + 1; p-- > lo;)
         if (memcmp(d + p, "PK\x05\x06", 4) == 0 && p + 22 + le(d + p + 20, 2) == size) {
-            eocd = p;
-            found = 1;
-            break;
+            *eocd = p;
+            return PKSS_OK;
         }
-    if (!found)
-        return io_fail(ctx, PKSS_ERR_FORMAT,
-                       "NPZ: no zip end-of-directory record (truncated, or not an .npz)");
-    entries = le(d + eocd + 10, 2);
-    cd_size = le(d + eocd + 12, 4);
-    cd_off = le(d + eocd + 16, 4);
-    if (entries == 0xFFFF || cd_size == 0xFFFFFFFFu || cd_off == 0xFFFFFFFFu) {
+    return io_fail(ctx, PKSS_ERR_FORMAT,
+                   "NPZ: no zip end-of-directory record (truncated, or not an .npz)");
+}
+
+/* The central directory's place and entry count (from the zip64 record
+ * when the 32-bit fields are saturated), checked to fit before eocd. */
+typedef struct npz_dir {
+    uint64_t entries, cd_size, cd_off;
+} npz_dir;
+
+static pkss_status npz_directory(io_ctx *ctx, size_t eocd, npz_dir *dir)
+{
+    const unsigned char *d = ctx->data;
+    dir->entries = le(d + eocd + 10, 2);
+    dir->cd_size = le(d + eocd + 12, 4);
+    dir->cd_off = le(d + eocd + 16, 4);
+    if (dir->entries == 0xFFFF || dir->cd_size == 0xFFFFFFFFu || dir->cd_off == 0xFFFFFFFFu) {
         uint64_t z;
         if (eocd < 20 || memcmp(d + eocd - 20, "PK\x06\x07", 4) != 0)
             return io_fail(ctx, PKSS_ERR_FORMAT, "NPZ: zip64 locator missing");
         z = le(d + eocd - 20 + 8, 8);
         if (z > eocd - 20 || eocd - 20 - z < 56 || memcmp(d + z, "PK\x06\x06", 4) != 0)
             return io_fail(ctx, PKSS_ERR_FORMAT, "NPZ: bad zip64 end-of-directory record");
-        entries = le(d + z + 32, 8);
-        cd_size = le(d + z + 40, 8);
-        cd_off = le(d + z + 48, 8);
+        dir->entries = le(d + z + 32, 8);
+        dir->cd_size = le(d + z + 40, 8);
+        dir->cd_off = le(d + z + 48, 8);
     }
-    if (cd_off > eocd || cd_size > eocd - cd_off || entries > cd_size / 46)
+    if (dir->cd_off > eocd || dir->cd_size > eocd - dir->cd_off ||
+        dir->entries > dir->cd_size / 46) /* 46: the fixed part of an entry */
         return io_fail(ctx, PKSS_ERR_FORMAT,
                        "NPZ: the zip directory (%llu entries, %llu bytes at %llu) does not "
                        "fit the file",
-                       (unsigned long long)entries, (unsigned long long)cd_size,
-                       (unsigned long long)cd_off);
-    memset(&pick, 0, sizeof pick);
-    memset(&first, 0, sizeof first);
-    p = (size_t)cd_off;
-    for (k = 0; k < (size_t)entries; k++) {
-        zip_entry e;
-        size_t nl, xl, cl, end = (size_t)(cd_off + cd_size);
-        if (end - p < 46 || memcmp(d + p, "PK\x01\x02", 4) != 0)
-            return io_fail(ctx, PKSS_ERR_FORMAT, "NPZ: zip directory entry %llu is damaged",
-                           (unsigned long long)k);
-        memset(&e, 0, sizeof e);
-        e.flags = (unsigned)le(d + p + 8, 2);
-        e.method = (unsigned)le(d + p + 10, 2);
-        e.crc = (uint32_t)le(d + p + 16, 4);
-        e.csize = le(d + p + 20, 4);
-        e.usize = le(d + p + 24, 4);
-        nl = (size_t)le(d + p + 28, 2);
-        xl = (size_t)le(d + p + 30, 2);
-        cl = (size_t)le(d + p + 32, 2);
-        e.offset = le(d + p + 42, 4);
-        if (end - p - 46 < nl + xl + cl)
-            return io_fail(ctx, PKSS_ERR_FORMAT, "NPZ: zip directory entry %llu is damaged",
-                           (unsigned long long)k);
-        e.name = (const char *)d + p + 46;
-        e.name_len = nl;
-        if (zip64_extra(d + p + 46 + nl, xl, &e) != 0)
-            return io_fail(ctx, PKSS_ERR_FORMAT, "NPZ: bad zip64 field in entry %llu",
-                           (unsigned long long)k);
-        p += 46 + nl + xl + cl;
-        if (nl == 0 || e.name[nl - 1] == '/')
-            continue; /* a directory */
-        members++;
-        if (members == 1)
-            first = e;
-        if (names_len + nl + 3 < sizeof names - 4) {
-            snprintf(names + names_len, sizeof names - names_len, "%s%.*s",
-                     names_len ? ", " : "", (int)nl, e.name);
-            names_len = strlen(names);
-        } else if (names_len < sizeof names - 5) {
-            memcpy(names + names_len, ", ...", 6);
-            names_len += 5;
-        }
-        if (ctx->array) {
-            if (!have && name_is(&e, ctx->array, strlen(ctx->array))) {
-                pick = e;
-                have = 1;
-            }
-        } else if (name_is(&e, "points", 6) || name_is(&e, "xyz", 3)) {
-            if (!npick++ || name_is(&e, "points", 6))
-                pick = e; /* "points" wins over "xyz" */
-        }
+                       (unsigned long long)dir->entries, (unsigned long long)dir->cd_size,
+                       (unsigned long long)dir->cd_off);
+    return PKSS_OK;
+}
+
+/* Directory entry k at *p (the directory ends at end); *p moves past it. */
+static pkss_status npz_entry(io_ctx *ctx, size_t *p, size_t end, size_t k, zip_entry *e)
+{
+    const unsigned char *d = ctx->data;
+    size_t nl, xl, cl, at = *p;
+    if (end - at < 46 || memcmp(d + at, "PK\x01\x02", 4) != 0)
+        return io_fail(ctx, PKSS_ERR_FORMAT, "NPZ: zip directory entry %llu is damaged",
+                       (unsigned long long)k);
+    memset(e, 0, sizeof *e);
+    e->flags = (unsigned)le(d + at + 8, 2);
+    e->method = (unsigned)le(d + at + 10, 2);
+    e->crc = (uint32_t)le(d + at + 16, 4);
+    e->csize = le(d + at + 20, 4);
+    e->usize = le(d + at + 24, 4);
+    nl = (size_t)le(d + at + 28, 2);
+    xl = (size_t)le(d + at + 30, 2);
+    cl = (size_t)le(d + at + 32, 2);
+    e->offset = le(d + at + 42, 4);
+    if (end - at - 46 < nl + xl + cl)
+        return io_fail(ctx, PKSS_ERR_FORMAT, "NPZ: zip directory entry %llu is damaged",
+                       (unsigned long long)k);
+    e->name = (const char *)d + at + 46;
+    e->name_len = nl;
+    if (zip64_extra(d + at + 46 + nl, xl, e) != 0)
+        return io_fail(ctx, PKSS_ERR_FORMAT, "NPZ: bad zip64 field in entry %llu",
+                       (unsigned long long)k);
+    *p = at + 46 + nl + xl + cl;
+    return PKSS_OK;
+}
+
+/* What the directory walk has seen: the members (their names listed for
+ * messages, cut with "..."), the first one and the one picked so far. */
+typedef struct npz_scan {
+    zip_entry pick, first;
+    size_t members, npick;
+    int have; /* the member named by ctx->array was found */
+    char names[256];
+    size_t names_len;
+} npz_scan;
+
+/* Appends a member's name to the list shown in messages. */
+static void npz_list_name(npz_scan *sc, const zip_entry *e)
+{
+    size_t nl = e->name_len;
+    if (sc->names_len + nl + 3 < sizeof sc->names - 4) {
+        snprintf(sc->names + sc->names_len, sizeof sc->names - sc->names_len, "%s%.*s",
+                 sc->names_len ? ", " : "", (int)nl, e->name);
+        sc->names_len = strlen(sc->names);
+    } else if (sc->names_len < sizeof sc->names - 5) {
+        memcpy(sc->names + sc->names_len, ", ...", 6);
+        sc->names_len += 5;
     }
-    if (members == 0)
+}
+
+/* One member (not a directory): the one named by ctx->array, else
+ * "points" (which wins over "xyz"), else "xyz". */
+static void npz_note_member(const io_ctx *ctx, npz_scan *sc, const zip_entry *e)
+{
+    sc->members++;
+    if (sc->members == 1)
+        sc->first = *e;
+    npz_list_name(sc, e);
+    if (ctx->array) {
+        if (!sc->have && name_is(e, ctx->array, strlen(ctx->array))) {
+            sc->pick = *e;
+            sc->have = 1;
+        }
+    } else if (name_is(e, "points", 6) || name_is(e, "xyz", 3)) {
+        if (!sc->npick++ || name_is(e, "points", 6))
+            sc->pick = *e; /* "points" wins over "xyz" */
+    }
+}
+
+/* Walks the directory and settles sc->pick: the named member, else the
+ * only one, else "points" / "xyz". */
+static pkss_status npz_choose(io_ctx *ctx, const npz_dir *dir, npz_scan *sc)
+{
+    size_t p = (size_t)dir->cd_off, k, end = (size_t)(dir->cd_off + dir->cd_size);
+    char q[64];
+    for (k = 0; k < (size_t)dir->entries; k++) {
+        zip_entry e;
+        pkss_status st = npz_entry(ctx, &p, end, k, &e);
+        if (st != PKSS_OK)
+            return st;
+        if (e.name_len == 0 || e.name[e.name_len - 1] == '/')
+            continue; /* a directory */
+        npz_note_member(ctx, sc, &e);
+    }
+    if (sc->members == 0)
         return io_fail(ctx, PKSS_ERR_EMPTY_INPUT, "NPZ: the archive holds no arrays");
-    if (ctx->array && !have)
+    if (ctx->array && !sc->have)
         return io_fail(ctx, PKSS_ERR_FORMAT, "NPZ: no array '%s' (members: %s)",
-                       io_quote(ctx->array, strlen(ctx->array), q, sizeof q), names);
+                       io_quote(ctx->array, strlen(ctx->array), q, sizeof q), sc->names);
     if (!ctx->array) {
-        if (members == 1)
-            pick = first;
-        else if (npick == 0)
+        if (sc->members == 1)
+            sc->pick = sc->first;
+        else if (sc->npick == 0)
             return io_fail(ctx, PKSS_ERR_FORMAT,
                            "NPZ: %llu arrays and none named 'points' or 'xyz' (members: %s); "
                            "name one as file.npz:NAME",
-                           (unsigned long long)members, names);
+                           (unsigned long long)sc->members, sc->names);
     }
-    io_quote(pick.name, pick.name_len, q, sizeof q);
-    if (pick.flags & 1)
+    return PKSS_OK;
+}
+
+/* The picked member's data: stored (not encrypted, not deflated), its
+ * local header present, its bytes in the file and its CRC-32 right.
+ * q is the member's quoted name; *at receives the data offset. */
+static pkss_status npz_member_data(io_ctx *ctx, const zip_entry *pick, const char *q,
+                                   size_t *at)
+{
+    const unsigned char *d = ctx->data;
+    size_t size = ctx->size, p;
+    if (pick->flags & 1)
         return io_fail(ctx, PKSS_ERR_UNSUPPORTED_FORMAT, "NPZ: member '%s' is encrypted", q);
-    if (pick.method == 8)
+    if (pick->method == 8)
         return io_fail(ctx, PKSS_ERR_UNSUPPORTED_FORMAT,
                        "NPZ: member '%s' is deflate-compressed (np.savez_compressed), which "
                        "this reader does not inflate; save with np.savez, or np.save the "
                        "array as .npy", q);
-    if (pick.method != 0)
+    if (pick->method != 0)
         return io_fail(ctx, PKSS_ERR_UNSUPPORTED_FORMAT,
                        "NPZ: member '%s' uses zip compression method %u (only stored, 0)", q,
-                       pick.method);
-    if (pick.csize != pick.usize)
+                       pick->method);
+    if (pick->csize != pick->usize)
         return io_fail(ctx, PKSS_ERR_FORMAT,
                        "NPZ: stored member '%s' has sizes %llu and %llu", q,
-                       (unsigned long long)pick.csize, (unsigned long long)pick.usize);
-    if (size < 30 || pick.offset > size - 30 || memcmp(d + pick.offset, "PK\x03\x04", 4) != 0)
+                       (unsigned long long)pick->csize, (unsigned long long)pick->usize);
+    if (size < 30 || pick->offset > size - 30 ||
+        memcmp(d + pick->offset, "PK\x03\x04", 4) != 0)
         return io_fail(ctx, PKSS_ERR_FORMAT,
                        "NPZ: member '%s': no local header at byte %llu", q,
-                       (unsigned long long)pick.offset);
-    p = (size_t)pick.offset + 30 + (size_t)le(d + pick.offset + 26, 2) +
-        (size_t)le(d + pick.offset + 28, 2);
-    if (p > size || pick.csize > size - p)
+                       (unsigned long long)pick->offset);
+    p = (size_t)pick->offset + 30 + (size_t)le(d + pick->offset + 26, 2) +
+        (size_t)le(d + pick->offset + 28, 2);
+    if (p > size || pick->csize > size - p)
         return io_fail(ctx, PKSS_ERR_FORMAT,
                        "NPZ: member '%s': truncated at byte %llu: expected %llu bytes of data",
-                       q, (unsigned long long)size, (unsigned long long)pick.csize);
-    if (crc32_of(d + p, (size_t)pick.csize) != pick.crc)
+                       q, (unsigned long long)size, (unsigned long long)pick->csize);
+    if (crc32_of(d + p, (size_t)pick->csize) != pick->crc)
         return io_fail(ctx, PKSS_ERR_FORMAT, "NPZ: member '%s': CRC-32 mismatch (damaged)", q);
-    {
-        io_ctx sub = *ctx;
-        pkss_status st;
-        sub.data = d + p;
-        sub.size = (size_t)pick.csize;
-        sub.err = msg;
-        sub.err_size = sizeof msg;
-        sub.array = NULL;
-        msg[0] = '\0';
-        st = io_read_npy(&sub, xyz, n);
-        if (st != PKSS_OK)
-            return io_fail(ctx, st, "NPZ: member '%s': %s", q, msg);
-        return PKSS_OK;
-    }
+    *at = p;
+    return PKSS_OK;
+}
+
+pkss_status io_read_npz(io_ctx *ctx, double **xyz, size_t *n)
+{
+    size_t eocd = 0, p = 0;
+    npz_dir dir;
+    npz_scan sc;
+    char q[64], msg[1024];
+    io_ctx sub;
+    pkss_status st = npz_find_eocd(ctx, &eocd);
+
+    memset(&sc, 0, sizeof sc);
+    if (st == PKSS_OK)
+        st = npz_directory(ctx, eocd, &dir);
+    if (st == PKSS_OK)
+        st = npz_choose(ctx, &dir, &sc);
+    if (st != PKSS_OK)
+        return st;
+    io_quote(sc.pick.name, sc.pick.name_len, q, sizeof q);
+    st = npz_member_data(ctx, &sc.pick, q, &p);
+    if (st != PKSS_OK)
+        return st;
+    /* The member is a .npy; its own message is kept after the name. */
+    sub = *ctx;
+    sub.data = ctx->data + p;
+    sub.size = (size_t)sc.pick.csize;
+    sub.err = msg;
+    sub.err_size = sizeof msg;
+    sub.array = NULL;
+    msg[0] = '\0';
+    st = io_read_npy(&sub, xyz, n);
+    if (st != PKSS_OK)
+        return io_fail(ctx, st, "NPZ: member '%s': %s", q, msg);
+    return PKSS_OK;
 }

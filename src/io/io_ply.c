@@ -31,7 +31,7 @@ typedef struct ply_element {
 typedef struct ply_header {
     int format;         /* 0 ascii, 1 binary LE, 2 binary BE */
     ply_element *el;
-    size_t n_el;
+    size_t n_el, cap_el; /* elements used, allocated */
 } ply_header;
 
 static io_type ply_type(const char *t, size_t len)
@@ -66,194 +66,265 @@ static void ply_free(ply_header *h)
 
 #define MAX_TOK 8
 
+/* One header line split into its first MAX_TOK tokens. */
+typedef struct ply_line {
+    const char *tok[MAX_TOK];
+    size_t tlen[MAX_TOK], nt, line_no;
+} ply_line;
+
+/* "format ascii|binary_little_endian|binary_big_endian VERSION" */
+static pkss_status ply_format_line(io_ctx *ctx, ply_header *h,
+                                   const ply_line *L)
+{
+    char q[64];
+    if (L->nt < 2)
+        return io_fail(ctx, PKSS_ERR_FORMAT,
+                       "PLY: header line %lu: 'format' without a value",
+                       (unsigned long)L->line_no);
+    if (io_tok_eq(L->tok[1], L->tlen[1], "ascii"))
+        h->format = 0;
+    else if (io_tok_eq(L->tok[1], L->tlen[1], "binary_little_endian"))
+        h->format = 1;
+    else if (io_tok_eq(L->tok[1], L->tlen[1], "binary_big_endian"))
+        h->format = 2;
+    else
+        return io_fail(ctx, PKSS_ERR_FORMAT,
+                       "PLY: header line %lu: unknown format '%s' "
+                       "(ascii, binary_little_endian or "
+                       "binary_big_endian)",
+                       (unsigned long)L->line_no,
+                       io_quote(L->tok[1], L->tlen[1], q, sizeof q));
+    return PKSS_OK;
+}
+
+/* The COUNT of "element NAME COUNT", with a message for each way it can be
+ * wrong (negative, past 64 bits, not a number). */
+static pkss_status ply_element_count(io_ctx *ctx, const ply_line *L,
+                                     uint64_t *cnt)
+{
+    char q[64], q2[64];
+    int r;
+    if (L->nt != 3)
+        return io_fail(ctx, PKSS_ERR_FORMAT,
+                       "PLY: header line %lu: expected 'element NAME "
+                       "COUNT'",
+                       (unsigned long)L->line_no);
+    r = io_parse_u64(L->tok[2], L->tlen[2], cnt);
+    if (r == -2)
+        return io_fail(ctx, PKSS_ERR_FORMAT,
+                       "PLY: header line %lu: negative count %s for "
+                       "element '%s'",
+                       (unsigned long)L->line_no,
+                       io_quote(L->tok[2], L->tlen[2], q, sizeof q),
+                       io_quote(L->tok[1], L->tlen[1], q2, sizeof q2));
+    if (r == -3)
+        return io_fail(ctx, PKSS_ERR_FORMAT,
+                       "PLY: header line %lu: element count %s "
+                       "overflows 64 bits",
+                       (unsigned long)L->line_no,
+                       io_quote(L->tok[2], L->tlen[2], q, sizeof q));
+    if (r != 0)
+        return io_fail(ctx, PKSS_ERR_FORMAT,
+                       "PLY: header line %lu: element count '%s' is "
+                       "not an integer",
+                       (unsigned long)L->line_no,
+                       io_quote(L->tok[2], L->tlen[2], q, sizeof q));
+    return PKSS_OK;
+}
+
+/* "element NAME COUNT": appends an element without properties. */
+static pkss_status ply_element_line(io_ctx *ctx, ply_header *h,
+                                    const ply_line *L)
+{
+    ply_element *el;
+    uint64_t cnt;
+    pkss_status st = ply_element_count(ctx, L, &cnt);
+    if (st != PKSS_OK)
+        return st;
+    if (h->n_el >= PLY_MAX_ELEMENTS)
+        return io_fail(ctx, PKSS_ERR_UNSUPPORTED_FORMAT,
+                       "PLY: more than %d elements", PLY_MAX_ELEMENTS);
+    if (h->n_el == h->cap_el) {
+        size_t nc = h->cap_el ? 2 * h->cap_el : 4;
+        ply_element *ne = (ply_element *)realloc(h->el, nc * sizeof *ne);
+        if (!ne)
+            return io_fail(ctx, PKSS_ERR_OUT_OF_MEMORY,
+                           "PLY: out of memory in the header");
+        h->el = ne;
+        h->cap_el = nc;
+    }
+    el = &h->el[h->n_el++];
+    memset(el, 0, sizeof *el);
+    io_quote(L->tok[1], L->tlen[1], el->name, sizeof el->name);
+    el->count = cnt;
+    el->ix = el->iy = el->iz = -1;
+    return PKSS_OK;
+}
+
+/* The types and the name of "property list COUNT_TYPE ITEM_TYPE NAME" or
+ * "property TYPE NAME". */
+static pkss_status ply_prop_types(io_ctx *ctx, const ply_line *L,
+                                  ply_prop *p, const char **name,
+                                  size_t *nlen)
+{
+    char q[64];
+    if (L->nt >= 2 && io_tok_eq(L->tok[1], L->tlen[1], "list")) {
+        if (L->nt != 5)
+            return io_fail(ctx, PKSS_ERR_FORMAT,
+                           "PLY: header line %lu: expected 'property "
+                           "list COUNT_TYPE ITEM_TYPE NAME'",
+                           (unsigned long)L->line_no);
+        p->count_type = ply_type(L->tok[2], L->tlen[2]);
+        p->type = ply_type(L->tok[3], L->tlen[3]);
+        if (p->count_type == IO_T_INVALID || p->type == IO_T_INVALID)
+            return io_fail(ctx, PKSS_ERR_FORMAT,
+                           "PLY: header line %lu: unknown type '%s'",
+                           (unsigned long)L->line_no,
+                           p->count_type == IO_T_INVALID
+                               ? io_quote(L->tok[2], L->tlen[2], q, sizeof q)
+                               : io_quote(L->tok[3], L->tlen[3], q, sizeof q));
+        if (!io_type_is_integer(p->count_type))
+            return io_fail(ctx, PKSS_ERR_FORMAT,
+                           "PLY: header line %lu: list count type "
+                           "must be an integer type",
+                           (unsigned long)L->line_no);
+        *name = L->tok[4];
+        *nlen = L->tlen[4];
+        return PKSS_OK;
+    }
+    if (L->nt != 3)
+        return io_fail(ctx, PKSS_ERR_FORMAT,
+                       "PLY: header line %lu: expected 'property "
+                       "TYPE NAME'",
+                       (unsigned long)L->line_no);
+    p->count_type = IO_T_INVALID;
+    p->type = ply_type(L->tok[1], L->tlen[1]);
+    if (p->type == IO_T_INVALID)
+        return io_fail(ctx, PKSS_ERR_FORMAT,
+                       "PLY: header line %lu: unknown property "
+                       "type '%s'",
+                       (unsigned long)L->line_no,
+                       io_quote(L->tok[1], L->tlen[1], q, sizeof q));
+    *name = L->tok[2];
+    *nlen = L->tlen[2];
+    return PKSS_OK;
+}
+
+/* Records property number el->n_props as x, y or z; a second one of the
+ * same name is refused (which would be read is a guess). */
+static pkss_status ply_xyz_slot(io_ctx *ctx, ply_element *el,
+                                const ply_prop *p, const char *name,
+                                size_t nlen, size_t line_no)
+{
+    int *slot;
+    if (nlen != 1 || (name[0] != 'x' && name[0] != 'y' && name[0] != 'z'))
+        return PKSS_OK;
+    slot = name[0] == 'x' ? &el->ix : name[0] == 'y' ? &el->iy : &el->iz;
+    if (*slot >= 0)
+        return io_fail(ctx, PKSS_ERR_FORMAT,
+                       "PLY: header line %lu: element '%s' has a "
+                       "second property '%c'",
+                       (unsigned long)line_no, el->name, name[0]);
+    *slot = (int)el->n_props;
+    if (p->count_type != IO_T_INVALID)
+        el->xyz_list = 1;
+    return PKSS_OK;
+}
+
+/* "property ...": appends a property to the last element. */
+static pkss_status ply_property_line(io_ctx *ctx, ply_header *h,
+                                     const ply_line *L)
+{
+    ply_element *el;
+    ply_prop p;
+    const char *name = NULL;
+    size_t nlen = 0;
+    pkss_status st;
+    if (h->n_el == 0)
+        return io_fail(ctx, PKSS_ERR_FORMAT,
+                       "PLY: header line %lu: 'property' before any "
+                       "'element'",
+                       (unsigned long)L->line_no);
+    el = &h->el[h->n_el - 1];
+    st = ply_prop_types(ctx, L, &p, &name, &nlen);
+    if (st != PKSS_OK)
+        return st;
+    if (el->n_props >= PLY_MAX_PROPS)
+        return io_fail(ctx, PKSS_ERR_UNSUPPORTED_FORMAT,
+                       "PLY: more than %d properties in element '%s'",
+                       PLY_MAX_PROPS, el->name);
+    if (el->n_props == el->cap_props) {
+        size_t nc = el->cap_props ? 2 * el->cap_props : 8;
+        ply_prop *np = (ply_prop *)realloc(el->props, nc * sizeof *np);
+        if (!np)
+            return io_fail(ctx, PKSS_ERR_OUT_OF_MEMORY,
+                           "PLY: out of memory in the header");
+        el->props = np;
+        el->cap_props = nc;
+    }
+    st = ply_xyz_slot(ctx, el, &p, name, nlen, L->line_no);
+    if (st != PKSS_OK)
+        return st;
+    el->props[el->n_props++] = p;
+    return PKSS_OK;
+}
+
 /* Parses the header; *data_start receives the offset of the first data
  * byte. */
 static pkss_status ply_parse_header(io_ctx *ctx, ply_header *h,
                                        size_t *data_start)
 {
     io_cursor c;
-    const char *line, *tok[MAX_TOK];
-    size_t len, tlen[MAX_TOK], line_no, nt, cap_el = 0;
+    const char *line;
+    size_t len;
+    ply_line L;
     int have_format = 0;
-    char q[64], q2[64];
+    char q[64];
 
     h->format = -1;
     h->el = NULL;
     h->n_el = 0;
+    h->cap_el = 0;
     io_cursor_init(&c, ctx->data, ctx->size);
-    if (!io_next_line(&c, &line, &len, &line_no) || len != 3 ||
+    if (!io_next_line(&c, &line, &len, &L.line_no) || len != 3 ||
         memcmp(line, "ply", 3) != 0)
         return io_fail(ctx, PKSS_ERR_FORMAT,
                        "PLY: not a PLY file (the first line is not 'ply')");
 
-    while (io_next_line(&c, &line, &len, &line_no)) {
+    while (io_next_line(&c, &line, &len, &L.line_no)) {
         const char *s = line, *e = line + len;
-        nt = 0;
-        while (nt < MAX_TOK && io_line_token(&s, e, 0, &tok[nt], &tlen[nt]))
-            nt++;
-        if (nt == 0)
+        pkss_status st;
+        L.nt = 0;
+        while (L.nt < MAX_TOK &&
+               io_line_token(&s, e, 0, &L.tok[L.nt], &L.tlen[L.nt]))
+            L.nt++;
+        if (L.nt == 0)
             continue; /* blank line: tolerated */
-        if (io_tok_eq(tok[0], tlen[0], "comment") ||
-            io_tok_eq(tok[0], tlen[0], "obj_info"))
+        if (io_tok_eq(L.tok[0], L.tlen[0], "comment") ||
+            io_tok_eq(L.tok[0], L.tlen[0], "obj_info"))
             continue;
-        if (io_tok_eq(tok[0], tlen[0], "end_header")) {
+        if (io_tok_eq(L.tok[0], L.tlen[0], "end_header")) {
             if (!have_format)
                 return io_fail(ctx, PKSS_ERR_FORMAT,
                                "PLY: the header has no 'format' line");
             *data_start = (size_t)(c.p - (const char *)ctx->data);
             return PKSS_OK;
         }
-        if (io_tok_eq(tok[0], tlen[0], "format")) {
-            if (nt < 2)
-                return io_fail(ctx, PKSS_ERR_FORMAT,
-                               "PLY: header line %lu: 'format' without a value",
-                               (unsigned long)line_no);
-            if (io_tok_eq(tok[1], tlen[1], "ascii"))
-                h->format = 0;
-            else if (io_tok_eq(tok[1], tlen[1], "binary_little_endian"))
-                h->format = 1;
-            else if (io_tok_eq(tok[1], tlen[1], "binary_big_endian"))
-                h->format = 2;
-            else
-                return io_fail(ctx, PKSS_ERR_FORMAT,
-                               "PLY: header line %lu: unknown format '%s' "
-                               "(ascii, binary_little_endian or "
-                               "binary_big_endian)",
-                               (unsigned long)line_no,
-                               io_quote(tok[1], tlen[1], q, sizeof q));
+        if (io_tok_eq(L.tok[0], L.tlen[0], "format")) {
+            st = ply_format_line(ctx, h, &L);
             have_format = 1;
-        } else if (io_tok_eq(tok[0], tlen[0], "element")) {
-            ply_element *el;
-            uint64_t cnt;
-            int r;
-            if (nt != 3)
-                return io_fail(ctx, PKSS_ERR_FORMAT,
-                               "PLY: header line %lu: expected 'element NAME "
-                               "COUNT'",
-                               (unsigned long)line_no);
-            r = io_parse_u64(tok[2], tlen[2], &cnt);
-            if (r == -2)
-                return io_fail(ctx, PKSS_ERR_FORMAT,
-                               "PLY: header line %lu: negative count %s for "
-                               "element '%s'",
-                               (unsigned long)line_no,
-                               io_quote(tok[2], tlen[2], q, sizeof q),
-                               io_quote(tok[1], tlen[1], q2, sizeof q2));
-            if (r == -3)
-                return io_fail(ctx, PKSS_ERR_FORMAT,
-                               "PLY: header line %lu: element count %s "
-                               "overflows 64 bits",
-                               (unsigned long)line_no,
-                               io_quote(tok[2], tlen[2], q, sizeof q));
-            if (r != 0)
-                return io_fail(ctx, PKSS_ERR_FORMAT,
-                               "PLY: header line %lu: element count '%s' is "
-                               "not an integer",
-                               (unsigned long)line_no,
-                               io_quote(tok[2], tlen[2], q, sizeof q));
-            if (h->n_el >= PLY_MAX_ELEMENTS)
-                return io_fail(ctx, PKSS_ERR_UNSUPPORTED_FORMAT,
-                               "PLY: more than %d elements",
-                               PLY_MAX_ELEMENTS);
-            if (h->n_el == cap_el) {
-                size_t nc = cap_el ? 2 * cap_el : 4;
-                ply_element *ne =
-                    (ply_element *)realloc(h->el, nc * sizeof *ne);
-                if (!ne)
-                    return io_fail(ctx, PKSS_ERR_OUT_OF_MEMORY,
-                                   "PLY: out of memory in the header");
-                h->el = ne;
-                cap_el = nc;
-            }
-            el = &h->el[h->n_el++];
-            memset(el, 0, sizeof *el);
-            io_quote(tok[1], tlen[1], el->name, sizeof el->name);
-            el->count = cnt;
-            el->ix = el->iy = el->iz = -1;
-        } else if (io_tok_eq(tok[0], tlen[0], "property")) {
-            ply_element *el;
-            ply_prop p;
-            const char *name;
-            size_t nlen;
-            if (h->n_el == 0)
-                return io_fail(ctx, PKSS_ERR_FORMAT,
-                               "PLY: header line %lu: 'property' before any "
-                               "'element'",
-                               (unsigned long)line_no);
-            el = &h->el[h->n_el - 1];
-            if (nt >= 2 && io_tok_eq(tok[1], tlen[1], "list")) {
-                if (nt != 5)
-                    return io_fail(ctx, PKSS_ERR_FORMAT,
-                                   "PLY: header line %lu: expected 'property "
-                                   "list COUNT_TYPE ITEM_TYPE NAME'",
-                                   (unsigned long)line_no);
-                p.count_type = ply_type(tok[2], tlen[2]);
-                p.type = ply_type(tok[3], tlen[3]);
-                if (p.count_type == IO_T_INVALID || p.type == IO_T_INVALID)
-                    return io_fail(ctx, PKSS_ERR_FORMAT,
-                                   "PLY: header line %lu: unknown type '%s'",
-                                   (unsigned long)line_no,
-                                   p.count_type == IO_T_INVALID
-                                       ? io_quote(tok[2], tlen[2], q, sizeof q)
-                                       : io_quote(tok[3], tlen[3], q, sizeof q));
-                if (!io_type_is_integer(p.count_type))
-                    return io_fail(ctx, PKSS_ERR_FORMAT,
-                                   "PLY: header line %lu: list count type "
-                                   "must be an integer type",
-                                   (unsigned long)line_no);
-                name = tok[4];
-                nlen = tlen[4];
-            } else {
-                if (nt != 3)
-                    return io_fail(ctx, PKSS_ERR_FORMAT,
-                                   "PLY: header line %lu: expected 'property "
-                                   "TYPE NAME'",
-                                   (unsigned long)line_no);
-                p.count_type = IO_T_INVALID;
-                p.type = ply_type(tok[1], tlen[1]);
-                if (p.type == IO_T_INVALID)
-                    return io_fail(ctx, PKSS_ERR_FORMAT,
-                                   "PLY: header line %lu: unknown property "
-                                   "type '%s'",
-                                   (unsigned long)line_no,
-                                   io_quote(tok[1], tlen[1], q, sizeof q));
-                name = tok[2];
-                nlen = tlen[2];
-            }
-            if (el->n_props >= PLY_MAX_PROPS)
-                return io_fail(ctx, PKSS_ERR_UNSUPPORTED_FORMAT,
-                               "PLY: more than %d properties in element '%s'",
-                               PLY_MAX_PROPS, el->name);
-            if (el->n_props == el->cap_props) {
-                size_t nc = el->cap_props ? 2 * el->cap_props : 8;
-                ply_prop *np = (ply_prop *)realloc(el->props, nc * sizeof *np);
-                if (!np)
-                    return io_fail(ctx, PKSS_ERR_OUT_OF_MEMORY,
-                                   "PLY: out of memory in the header");
-                el->props = np;
-                el->cap_props = nc;
-            }
-            if (nlen == 1 && (name[0] == 'x' || name[0] == 'y' ||
-                              name[0] == 'z')) {
-                int *slot = name[0] == 'x' ? &el->ix
-                            : name[0] == 'y' ? &el->iy
-                                             : &el->iz;
-                if (*slot >= 0)
-                    return io_fail(ctx, PKSS_ERR_FORMAT,
-                                   "PLY: header line %lu: element '%s' has a "
-                                   "second property '%c'",
-                                   (unsigned long)line_no, el->name, name[0]);
-                *slot = (int)el->n_props;
-                if (p.count_type != IO_T_INVALID)
-                    el->xyz_list = 1;
-            }
-            el->props[el->n_props++] = p;
+        } else if (io_tok_eq(L.tok[0], L.tlen[0], "element")) {
+            st = ply_element_line(ctx, h, &L);
+        } else if (io_tok_eq(L.tok[0], L.tlen[0], "property")) {
+            st = ply_property_line(ctx, h, &L);
         } else {
             return io_fail(ctx, PKSS_ERR_FORMAT,
                            "PLY: header line %lu: unknown keyword '%s'",
-                           (unsigned long)line_no,
-                           io_quote(tok[0], tlen[0], q, sizeof q));
+                           (unsigned long)L.line_no,
+                           io_quote(L.tok[0], L.tlen[0], q, sizeof q));
         }
+        if (st != PKSS_OK)
+            return st;
     }
     return io_fail(ctx, PKSS_ERR_FORMAT,
                    "PLY: the header has no 'end_header' line (file ends at "
@@ -471,122 +542,155 @@ static pkss_status ascii_rows(io_ctx *ctx, const ply_element *el,
 
 /* --------------------------------------------------------------- main */
 
+/* The one 'vertex' element, with scalar x, y, z and at least one row. */
+static pkss_status ply_find_vertex(io_ctx *ctx, const ply_header *h,
+                                   size_t *vi)
+{
+    const ply_element *v = NULL;
+    size_t e;
+    for (e = 0; e < h->n_el; e++)
+        if (strcmp(h->el[e].name, "vertex") == 0) {
+            if (v)
+                return io_fail(ctx, PKSS_ERR_FORMAT,
+                               "PLY: the header declares a second 'vertex' element");
+            v = &h->el[e];
+            *vi = e;
+        }
+    if (!v)
+        return io_fail(ctx, PKSS_ERR_FORMAT,
+                       "PLY: the header declares no 'vertex' element");
+    if (v->ix < 0 || v->iy < 0 || v->iz < 0)
+        return io_fail(ctx, PKSS_ERR_FORMAT,
+                       "PLY: element 'vertex' lacks property '%s'",
+                       v->ix < 0 ? "x" : v->iy < 0 ? "y" : "z");
+    if (v->xyz_list)
+        return io_fail(ctx, PKSS_ERR_FORMAT,
+                       "PLY: vertex x, y and z must be scalar properties, not "
+                       "lists");
+    if (v->count == 0)
+        return io_fail(ctx, PKSS_ERR_EMPTY_INPUT,
+                       "PLY: the header declares 0 vertices");
+    return PKSS_OK;
+}
+
+/* Where the data is being read: the ascii cursor, or the binary offset. */
+typedef struct ply_data {
+    io_cursor c;
+    size_t pos;
+    int ascii, be;
+} ply_data;
+
+/* Skips the elements before the vertex element; d->pos then points at the
+ * vertex data in both encodings. */
+static pkss_status ply_skip_before(io_ctx *ctx, const ply_header *h,
+                                   size_t vi, ply_data *d)
+{
+    size_t e;
+    for (e = 0; e < vi; e++) {
+        pkss_status st = d->ascii ? ascii_rows(ctx, &h->el[e], &d->c, NULL)
+                                  : skip_binary(ctx, &h->el[e], d->be, &d->pos);
+        if (st != PKSS_OK)
+            return st;
+    }
+    if (d->ascii)
+        d->pos = (size_t)(d->c.p - (const char *)ctx->data);
+    return PKSS_OK;
+}
+
+/* Checks the declared vertex count against the bytes left, before the
+ * allocation; *need receives the smallest size of the vertex rows. */
+static pkss_status ply_check_room(io_ctx *ctx, const ply_element *v,
+                                  const ply_data *d, uint64_t *need)
+{
+    uint64_t left = ctx->size - d->pos, rmin = row_min_bytes(v, d->ascii);
+    if (io_mul_u64(v->count, rmin, need) != 0 ||
+        *need > left + (d->ascii ? 1 : 0))
+        return io_fail(ctx, PKSS_ERR_FORMAT,
+                       "PLY: truncated at byte %llu: expected %llu vertices "
+                       "(%s%llu bytes each), got %llu bytes of vertex data "
+                       "(%s%llu vertices)",
+                       (unsigned long long)ctx->size,
+                       (unsigned long long)v->count,
+                       d->ascii ? "at least " : "", (unsigned long long)rmin,
+                       (unsigned long long)left, d->ascii ? "at most " : "",
+                       (unsigned long long)(left / rmin));
+    return PKSS_OK;
+}
+
+/* Rows past the declared count (vertex the last element; ascii: any
+ * token, binary with fixed rows: any byte) mean the header and the data
+ * disagree: refuse rather than guess. */
+static pkss_status ply_check_trailing(io_ctx *ctx, const ply_header *h,
+                                      size_t vi, ply_data *d, uint64_t need)
+{
+    const ply_element *v = &h->el[vi];
+    uint64_t left = ctx->size - d->pos;
+    const char *tok;
+    size_t tlen;
+    if (vi + 1 != h->n_el)
+        return PKSS_OK;
+    if (d->ascii && io_next_token(&d->c, &tok, &tlen))
+        return io_fail(ctx, PKSS_ERR_FORMAT,
+                       "PLY: data after the %llu vertices the header declares "
+                       "(byte %llu)",
+                       (unsigned long long)v->count,
+                       (unsigned long long)(tok - (const char *)ctx->data));
+    if (!d->ascii && row_is_fixed(v) && need < left)
+        return io_fail(ctx, PKSS_ERR_FORMAT,
+                       "PLY: data after the %llu vertices the header declares "
+                       "(byte %llu, %llu bytes more)",
+                       (unsigned long long)v->count,
+                       (unsigned long long)(d->pos + need),
+                       (unsigned long long)(left - need));
+    return PKSS_OK;
+}
+
+/* Reads the vertex rows into a new array *out (freed by the caller). */
+static pkss_status ply_read_vertices(io_ctx *ctx, const ply_header *h,
+                                     size_t vi, ply_data *d, double **out)
+{
+    const ply_element *v = &h->el[vi];
+    uint64_t need = 0;
+    pkss_status st = ply_check_room(ctx, v, d, &need);
+    if (st != PKSS_OK)
+        return st;
+    *out = io_alloc_points(ctx, v->count);
+    if (!*out)
+        return PKSS_ERR_OUT_OF_MEMORY;
+    st = d->ascii ? ascii_rows(ctx, v, &d->c, *out)
+                  : read_binary_vertices(ctx, v, d->be, d->pos, *out);
+    if (st != PKSS_OK)
+        return st;
+    return ply_check_trailing(ctx, h, vi, d, need);
+}
+
 pkss_status io_read_ply(io_ctx *ctx, double **xyz, size_t *n)
 {
     ply_header h;
-    size_t pos = 0, e, vi = 0;
+    ply_data d;
+    size_t vi = 0;
+    double *out = NULL;
     pkss_status st;
-    ply_element *v = NULL;
-    io_cursor c;
-    uint64_t need, left;
-    double *out;
-    int ascii, be;
 
-    st = ply_parse_header(ctx, &h, &pos);
-    if (st != PKSS_OK) {
-        ply_free(&h);
-        return st;
+    d.pos = 0;
+    st = ply_parse_header(ctx, &h, &d.pos);
+    if (st == PKSS_OK)
+        st = ply_find_vertex(ctx, &h, &vi);
+    if (st == PKSS_OK) {
+        d.ascii = h.format == 0;
+        d.be = h.format == 2;
+        io_cursor_init(&d.c, ctx->data, ctx->size);
+        d.c.p += d.pos;
+        st = ply_skip_before(ctx, &h, vi, &d);
     }
-    for (e = 0; e < h.n_el; e++)
-        if (strcmp(h.el[e].name, "vertex") == 0) {
-            if (v) {
-                st = io_fail(ctx, PKSS_ERR_FORMAT,
-                             "PLY: the header declares a second 'vertex' element");
-                goto done;
-            }
-            v = &h.el[e];
-            vi = e;
-        }
-    if (!v) {
-        st = io_fail(ctx, PKSS_ERR_FORMAT,
-                     "PLY: the header declares no 'vertex' element");
-        goto done;
-    }
-    if (v->ix < 0 || v->iy < 0 || v->iz < 0) {
-        st = io_fail(ctx, PKSS_ERR_FORMAT,
-                     "PLY: element 'vertex' lacks property '%s'",
-                     v->ix < 0 ? "x" : v->iy < 0 ? "y" : "z");
-        goto done;
-    }
-    if (v->xyz_list) {
-        st = io_fail(ctx, PKSS_ERR_FORMAT,
-                     "PLY: vertex x, y and z must be scalar properties, not "
-                     "lists");
-        goto done;
-    }
-    if (v->count == 0) {
-        st = io_fail(ctx, PKSS_ERR_EMPTY_INPUT,
-                     "PLY: the header declares 0 vertices");
-        goto done;
-    }
-    ascii = h.format == 0;
-    be = h.format == 2;
-
-    /* Skip the elements before the vertex element. */
-    io_cursor_init(&c, ctx->data, ctx->size);
-    c.p += pos;
-    for (e = 0; e < vi; e++) {
-        if (ascii)
-            st = ascii_rows(ctx, &h.el[e], &c, NULL);
-        else
-            st = skip_binary(ctx, &h.el[e], be, &pos);
-        if (st != PKSS_OK)
-            goto done;
-    }
-    if (ascii)
-        pos = (size_t)(c.p - (const char *)ctx->data);
-
-    /* Check the declared vertex count against the bytes left. */
-    left = ctx->size - pos;
-    if (io_mul_u64(v->count, row_min_bytes(v, ascii), &need) != 0 ||
-        need > left + (ascii ? 1 : 0)) {
-        st = io_fail(ctx, PKSS_ERR_FORMAT,
-                     "PLY: truncated at byte %llu: expected %llu vertices "
-                     "(%s%llu bytes each), got %llu bytes of vertex data "
-                     "(%s%llu vertices)",
-                     (unsigned long long)ctx->size,
-                     (unsigned long long)v->count, ascii ? "at least " : "",
-                     (unsigned long long)row_min_bytes(v, ascii),
-                     (unsigned long long)left, ascii ? "at most " : "",
-                     (unsigned long long)(left / row_min_bytes(v, ascii)));
-        goto done;
-    }
-    out = io_alloc_points(ctx, v->count);
-    if (!out) {
-        st = PKSS_ERR_OUT_OF_MEMORY;
-        goto done;
-    }
-    if (ascii)
-        st = ascii_rows(ctx, v, &c, out);
-    else
-        st = read_binary_vertices(ctx, v, be, pos, out);
-    /* Rows past the declared count (vertex the last element; ascii: any
-     * token, binary with fixed rows: any byte) mean the header and the
-     * data disagree: refuse rather than guess. */
-    const char *tok;
-    size_t tlen;
-    if (st == PKSS_OK && ascii && vi + 1 == h.n_el &&
-        io_next_token(&c, &tok, &tlen))
-        st = io_fail(ctx, PKSS_ERR_FORMAT,
-                     "PLY: data after the %llu vertices the header declares "
-                     "(byte %llu)",
-                     (unsigned long long)v->count,
-                     (unsigned long long)(tok - (const char *)ctx->data));
-    else if (st == PKSS_OK && !ascii && vi + 1 == h.n_el &&
-             row_is_fixed(v) && need < left)
-        st = io_fail(ctx, PKSS_ERR_FORMAT,
-                     "PLY: data after the %llu vertices the header declares "
-                     "(byte %llu, %llu bytes more)",
-                     (unsigned long long)v->count,
-                     (unsigned long long)(pos + need),
-                     (unsigned long long)(left - need));
-    if (st != PKSS_OK) {
+    if (st == PKSS_OK)
+        st = ply_read_vertices(ctx, &h, vi, &d, &out);
+    if (st == PKSS_OK) {
+        *xyz = out;
+        *n = (size_t)h.el[vi].count;
+    } else {
         free(out);
-        goto done;
     }
-    *xyz = out;
-    *n = (size_t)v->count;
-done:
     ply_free(&h);
     return st;
 }

@@ -94,127 +94,170 @@ static int grow(double **buf, size_t *cap, size_t need)
     return 0;
 }
 
-pkss_status io_read_xyz(io_ctx *ctx, double **xyz, size_t *n)
-{
-    io_cursor c;
-    const char *line;
-    size_t len, line_no, rows = 0, cap = 0, header = 0;
-    size_t count_line = 0;
-    uint64_t count = 0;
-    int have_count = 0, started = 0;
-    double *out = NULL;
-    char q[64];
-    pkss_status st = check_nul(ctx, "XYZ");
-    if (st != PKSS_OK)
-        return st;
+/* The state of one XYZ read: the rows so far and the optional count line. */
+typedef struct xyz_state {
+    double *out;
+    size_t rows, cap, header, count_line;
+    uint64_t count;
+    int have_count, started;
+} xyz_state;
 
-    io_cursor_init(&c, ctx->data, ctx->size);
-    while (io_next_line(&c, &line, &len, &line_no)) {
-        const char *s = line, *e = line + strip_comment(line, len);
-        if (decimal_commas(s, e)) {
-            free(out);
-            return io_fail(ctx, PKSS_ERR_FORMAT,
-                           "XYZ: line %lu: '%s' looks like decimal commas; "
-                           "write numbers with '.' (columns may be separated "
-                           "by blanks or commas)",
-                           (unsigned long)line_no, io_quote(line, len, q, sizeof q));
-        }
-        const char *tok[3];
-        size_t tl[3], nt = 0, more = 0;
-        double v[3];
-        const char *t;
-        size_t l;
-        int numeric = 1;
-        while (io_line_token(&s, e, 1, &t, &l)) {
-            if (nt < 3) {
-                tok[nt] = t;
-                tl[nt] = l;
-                nt++;
-            } else {
-                more = 1;
-                break;
-            }
-        }
-        if (nt == 0)
-            continue; /* blank or comment */
+/* Up to the first 3 tokens of a line; *more is set when a 4th follows.
+ * @return the number of tokens kept (0 for a blank or comment line). */
+static size_t xyz_tokens(const char *s, const char *e, const char *tok[3],
+                         size_t tl[3], size_t *more)
+{
+    const char *t;
+    size_t l, nt = 0;
+    *more = 0;
+    while (io_line_token(&s, e, 1, &t, &l)) {
         if (nt == 3) {
-            size_t k;
-            for (k = 0; k < 3 && numeric; k++)
-                if (io_parse_double(tok[k], tl[k], &v[k]) != 0)
-                    numeric = 0;
-        } else {
-            numeric = 0;
+            *more = 1;
+            break;
         }
-        if (numeric) {
-            if (grow(&out, &cap, rows + 1) != 0) {
-                free(out);
-                return io_fail(ctx, PKSS_ERR_OUT_OF_MEMORY,
-                               "XYZ: out of memory at line %lu",
-                               (unsigned long)line_no);
-            }
-            out[3 * rows] = v[0];
-            out[3 * rows + 1] = v[1];
-            out[3 * rows + 2] = v[2];
-            rows++;
-            started = 1;
-            continue;
-        }
-        if (started) {
-            free(out);
-            return io_fail(ctx, PKSS_ERR_FORMAT,
-                           "XYZ: line %lu: expected 3 numeric columns, got "
-                           "'%s'",
-                           (unsigned long)line_no,
-                           io_quote(line, len, q, sizeof q));
-        }
-        if (nt == 1 && !more && !have_count && header == 0 &&
-            io_parse_u64(tok[0], tl[0], &count) == 0) {
-            have_count = 1; /* "N" first line: Go-ICP .txt, Leica .pts */
-            count_line = line_no;
-            continue;
-        }
-        if (++header > IO_MAX_HEADER_LINES) {
-            free(out);
-            return io_fail(ctx, PKSS_ERR_FORMAT,
-                           "XYZ: line %lu: no row of 3 numeric columns in "
-                           "the first %d non-blank lines (last: '%s'); not "
-                           "a point list",
-                           (unsigned long)line_no, IO_MAX_HEADER_LINES,
-                           io_quote(line, len, q, sizeof q));
-        }
+        tok[nt] = t;
+        tl[nt] = l;
+        nt++;
     }
-    if (rows == 0) {
-        if (header > 0)
+    return nt;
+}
+
+/* 1 if the line is a point row: exactly 3 leading tokens, all numbers. */
+static int xyz_numeric(const char *tok[3], const size_t tl[3], size_t nt,
+                       double v[3])
+{
+    size_t k;
+    if (nt != 3)
+        return 0;
+    for (k = 0; k < 3; k++)
+        if (io_parse_double(tok[k], tl[k], &v[k]) != 0)
+            return 0;
+    return 1;
+}
+
+/* Appends one point row. */
+static pkss_status xyz_add_row(io_ctx *ctx, xyz_state *x, const double v[3],
+                               size_t line_no)
+{
+    if (grow(&x->out, &x->cap, x->rows + 1) != 0)
+        return io_fail(ctx, PKSS_ERR_OUT_OF_MEMORY,
+                       "XYZ: out of memory at line %lu",
+                       (unsigned long)line_no);
+    x->out[3 * x->rows] = v[0];
+    x->out[3 * x->rows + 1] = v[1];
+    x->out[3 * x->rows + 2] = v[2];
+    x->rows++;
+    x->started = 1;
+    return PKSS_OK;
+}
+
+/* A line that is not a point row: after the first row an error; before it
+ * the count line (one integer, first) or one more header line. */
+static pkss_status xyz_non_row(io_ctx *ctx, xyz_state *x, const char *tok0,
+                               size_t tl0, size_t nt, size_t more,
+                               const char *line, size_t len, size_t line_no)
+{
+    char q[64];
+    if (x->started)
+        return io_fail(ctx, PKSS_ERR_FORMAT,
+                       "XYZ: line %lu: expected 3 numeric columns, got "
+                       "'%s'",
+                       (unsigned long)line_no,
+                       io_quote(line, len, q, sizeof q));
+    if (nt == 1 && !more && !x->have_count && x->header == 0 &&
+        io_parse_u64(tok0, tl0, &x->count) == 0) {
+        x->have_count = 1; /* "N" first line: Go-ICP .txt, Leica .pts */
+        x->count_line = line_no;
+        return PKSS_OK;
+    }
+    if (++x->header > IO_MAX_HEADER_LINES)
+        return io_fail(ctx, PKSS_ERR_FORMAT,
+                       "XYZ: line %lu: no row of 3 numeric columns in "
+                       "the first %d non-blank lines (last: '%s'); not "
+                       "a point list",
+                       (unsigned long)line_no, IO_MAX_HEADER_LINES,
+                       io_quote(line, len, q, sizeof q));
+    return PKSS_OK;
+}
+
+/* One line of the file: refused decimal commas, blank, row or header. */
+static pkss_status xyz_line(io_ctx *ctx, xyz_state *x, const char *line,
+                            size_t len, size_t line_no)
+{
+    const char *e = line + strip_comment(line, len);
+    const char *tok[3] = {NULL, NULL, NULL};
+    size_t tl[3] = {0, 0, 0}, nt, more;
+    double v[3];
+    char q[64];
+    if (decimal_commas(line, e))
+        return io_fail(ctx, PKSS_ERR_FORMAT,
+                       "XYZ: line %lu: '%s' looks like decimal commas; "
+                       "write numbers with '.' (columns may be separated "
+                       "by blanks or commas)",
+                       (unsigned long)line_no, io_quote(line, len, q, sizeof q));
+    nt = xyz_tokens(line, e, tok, tl, &more);
+    if (nt == 0)
+        return PKSS_OK; /* blank or comment */
+    if (xyz_numeric(tok, tl, nt, v))
+        return xyz_add_row(ctx, x, v, line_no);
+    return xyz_non_row(ctx, x, tok[0], tl[0], nt, more, line, len, line_no);
+}
+
+/* After the last line: at least one row, and as many as the count line
+ * says. */
+static pkss_status xyz_check_rows(io_ctx *ctx, const xyz_state *x)
+{
+    if (x->rows == 0) {
+        if (x->header > 0)
             return io_fail(ctx, PKSS_ERR_FORMAT,
                            "XYZ: no row of 3 numeric columns (%lu header "
                            "line%s only)",
-                           (unsigned long)header, header == 1 ? "" : "s");
+                           (unsigned long)x->header, x->header == 1 ? "" : "s");
         return io_fail(ctx, PKSS_ERR_EMPTY_INPUT,
                        "XYZ: no points (only blank, comment or count lines)");
     }
-    if (have_count && count > rows) {
-        free(out);
+    if (x->have_count && x->count > x->rows)
         return io_fail(ctx, PKSS_ERR_FORMAT,
                        "XYZ: truncated at byte %llu: line %lu says %llu "
                        "points but %lu rows follow",
                        (unsigned long long)ctx->size,
-                       (unsigned long)count_line, (unsigned long long)count,
-                       (unsigned long)rows);
-    }
-    if (have_count && count != rows) {
-        free(out);
+                       (unsigned long)x->count_line,
+                       (unsigned long long)x->count, (unsigned long)x->rows);
+    if (x->have_count && x->count != x->rows)
         return io_fail(ctx, PKSS_ERR_FORMAT,
                        "XYZ: line %lu says %llu points but %lu rows follow",
-                       (unsigned long)count_line, (unsigned long long)count,
-                       (unsigned long)rows);
+                       (unsigned long)x->count_line,
+                       (unsigned long long)x->count, (unsigned long)x->rows);
+    return PKSS_OK;
+}
+
+pkss_status io_read_xyz(io_ctx *ctx, double **xyz, size_t *n)
+{
+    io_cursor c;
+    const char *line;
+    size_t len, line_no;
+    xyz_state x;
+    pkss_status st = check_nul(ctx, "XYZ");
+    if (st != PKSS_OK)
+        return st;
+
+    memset(&x, 0, sizeof x);
+    io_cursor_init(&c, ctx->data, ctx->size);
+    while (st == PKSS_OK && io_next_line(&c, &line, &len, &line_no))
+        st = xyz_line(ctx, &x, line, len, line_no);
+    if (st == PKSS_OK)
+        st = xyz_check_rows(ctx, &x);
+    if (st != PKSS_OK) {
+        free(x.out);
+        return st;
     }
-    if (cap > rows) { /* give back the slack */
-        double *nb = (double *)realloc(out, rows * 3 * sizeof(double));
+    if (x.cap > x.rows) { /* give back the slack */
+        double *nb = (double *)realloc(x.out, x.rows * 3 * sizeof(double));
         if (nb)
-            out = nb;
+            x.out = nb;
     }
-    *xyz = out;
-    *n = rows;
+    *xyz = x.out;
+    *n = x.rows;
     return PKSS_OK;
 }
 
@@ -237,34 +280,21 @@ static int next_content_line(io_cursor *c, const char **s, const char **e,
     return 0;
 }
 
-pkss_status io_read_off(io_ctx *ctx, double **xyz, size_t *n)
+/* Checks the keyword token [ST][C][N][4][n]OFF; *pre receives the length
+ * of its prefix (the letters before "OFF"). */
+static pkss_status off_keyword(io_ctx *ctx, const char *t, size_t l,
+                               size_t line_no, size_t *pre)
 {
-    io_cursor c;
-    const char *s, *e, *t, *off;
-    size_t l, line_no, pre, k, ncounts = 0;
-    uint64_t counts[3] = {0, 0, 0}, need, left, i;
-    const char *glued = NULL;
-    size_t glued_len = 0;
-    double *out;
+    const char *off = NULL;
+    size_t k;
     char q[64];
-    pkss_status st = check_nul(ctx, "OFF");
-    if (st != PKSS_OK)
-        return st;
-
-    io_cursor_init(&c, ctx->data, ctx->size);
-    if (!next_content_line(&c, &s, &e, &line_no))
-        return io_fail(ctx, PKSS_ERR_EMPTY_INPUT,
-                       "OFF: no content (only blank or comment lines)");
-    io_line_token(&s, e, 0, &t, &l);
-    /* keyword: [ST][C][N][4][n]OFF, possibly followed by glued digits */
-    off = NULL;
     for (k = 0; k + 3 <= l; k++)
         if (memcmp(t + k, "OFF", 3) == 0) {
             off = t + k;
             break;
         }
-    pre = off ? (size_t)(off - t) : 0;
-    for (k = 0; off && k < pre; k++)
+    *pre = off ? (size_t)(off - t) : 0;
+    for (k = 0; off && k < *pre; k++)
         if (!strchr("STCN4n", t[k]))
             off = NULL;
     if (!off)
@@ -272,50 +302,137 @@ pkss_status io_read_off(io_ctx *ctx, double **xyz, size_t *n)
                        "OFF: line %lu: '%s' is not an OFF keyword (OFF, "
                        "COFF, NOFF, ...)",
                        (unsigned long)line_no, io_quote(t, l, q, sizeof q));
-    if (memchr(t, '4', pre) || memchr(t, 'n', pre))
+    if (memchr(t, '4', *pre) || memchr(t, 'n', *pre))
         return io_fail(ctx, PKSS_ERR_UNSUPPORTED_FORMAT,
                        "OFF: 4D / nD OFF ('%s') is not supported",
                        io_quote(t, l, q, sizeof q));
-    if (pre + 3 < l) {
-        glued = t + pre + 3;
-        glued_len = l - pre - 3;
-    }
-    /* counts: glued digits, then the rest of the line, else the next line */
-    for (;;) {
+    return PKSS_OK;
+}
+
+/* Where the header is being read: the cursor and the rest of the current
+ * line [s, e). */
+typedef struct off_header {
+    io_cursor c;
+    const char *s, *e;
+    size_t line_no;
+} off_header;
+
+/* One count token: "BINARY" in place of the first is refused by name;
+ * after three counts the rest of the line is ignored. */
+static pkss_status off_count(io_ctx *ctx, const off_header *h, const char *ct,
+                             size_t cl, uint64_t counts[3], size_t *ncounts)
+{
+    char q[64];
+    int r;
+    if (*ncounts == 0 && io_tok_eq(ct, cl, "BINARY"))
+        return io_fail(ctx, PKSS_ERR_UNSUPPORTED_FORMAT,
+                       "OFF: binary OFF is not supported");
+    if (*ncounts >= 3)
+        return PKSS_OK;
+    r = io_parse_u64(ct, cl, &counts[*ncounts]);
+    if (r != 0)
+        return io_fail(ctx, PKSS_ERR_FORMAT,
+                       "OFF: line %lu: count '%s' is %s",
+                       (unsigned long)h->line_no,
+                       io_quote(ct, cl, q, sizeof q),
+                       r == -2   ? "negative"
+                       : r == -3 ? "too large"
+                                 : "not an integer");
+    (*ncounts)++;
+    return PKSS_OK;
+}
+
+/* The counts NV NF [NE]: digits glued to the keyword, then the rest of
+ * the keyword's line, else the next content line (which holds them all). */
+static pkss_status off_counts(io_ctx *ctx, off_header *h, const char *glued,
+                              size_t glued_len, uint64_t counts[3])
+{
+    size_t ncounts = 0;
+    pkss_status st = PKSS_OK;
+    while (st == PKSS_OK) {
         const char *ct;
         size_t cl;
         if (glued) {
             ct = glued;
             cl = glued_len;
             glued = NULL;
-        } else if (!io_line_token(&s, e, 0, &ct, &cl)) {
+        } else if (!io_line_token(&h->s, h->e, 0, &ct, &cl)) {
             if (ncounts > 0)
                 break;
-            if (!next_content_line(&c, &s, &e, &line_no))
+            if (!next_content_line(&h->c, &h->s, &h->e, &h->line_no))
                 return io_fail(ctx, PKSS_ERR_FORMAT,
                                "OFF: the file ends before the vertex count");
             continue;
         }
-        if (ncounts == 0 && io_tok_eq(ct, cl, "BINARY"))
-            return io_fail(ctx, PKSS_ERR_UNSUPPORTED_FORMAT,
-                           "OFF: binary OFF is not supported");
-        if (ncounts < 3) {
-            int r = io_parse_u64(ct, cl, &counts[ncounts]);
-            if (r != 0)
+        st = off_count(ctx, h, ct, cl, counts, &ncounts);
+    }
+    return st;
+}
+
+/* Reads nv vertex lines into out: the first 3 numbers of each. */
+static pkss_status off_vertices(io_ctx *ctx, off_header *h, uint64_t nv,
+                                double *out)
+{
+    const char *t;
+    size_t l, a;
+    uint64_t i;
+    char q[64];
+    for (i = 0; i < nv; i++) {
+        if (!next_content_line(&h->c, &h->s, &h->e, &h->line_no))
+            return io_fail(ctx, PKSS_ERR_FORMAT,
+                           "OFF: truncated at byte %llu: expected %llu "
+                           "vertices, got %llu",
+                           (unsigned long long)ctx->size,
+                           (unsigned long long)nv, (unsigned long long)i);
+        for (a = 0; a < 3; a++) {
+            if (!io_line_token(&h->s, h->e, 0, &t, &l))
                 return io_fail(ctx, PKSS_ERR_FORMAT,
-                               "OFF: line %lu: count '%s' is %s",
-                               (unsigned long)line_no,
-                               io_quote(ct, cl, q, sizeof q),
-                               r == -2   ? "negative"
-                               : r == -3 ? "too large"
-                                         : "not an integer");
-            ncounts++;
+                               "OFF: line %lu: vertex %llu has fewer than 3 "
+                               "coordinates",
+                               (unsigned long)h->line_no,
+                               (unsigned long long)i);
+            if (io_parse_double(t, l, &out[3 * i + a]) != 0)
+                return io_fail(ctx, PKSS_ERR_FORMAT,
+                               "OFF: line %lu: vertex %llu: '%s' is not a "
+                               "number",
+                               (unsigned long)h->line_no,
+                               (unsigned long long)i,
+                               io_quote(t, l, q, sizeof q));
         }
     }
+    return PKSS_OK;
+}
+
+pkss_status io_read_off(io_ctx *ctx, double **xyz, size_t *n)
+{
+    off_header h;
+    const char *t, *glued = NULL;
+    size_t l, pre, glued_len = 0;
+    uint64_t counts[3] = {0, 0, 0}, need, left;
+    double *out;
+    pkss_status st = check_nul(ctx, "OFF");
+    if (st != PKSS_OK)
+        return st;
+
+    io_cursor_init(&h.c, ctx->data, ctx->size);
+    if (!next_content_line(&h.c, &h.s, &h.e, &h.line_no))
+        return io_fail(ctx, PKSS_ERR_EMPTY_INPUT,
+                       "OFF: no content (only blank or comment lines)");
+    io_line_token(&h.s, h.e, 0, &t, &l);
+    st = off_keyword(ctx, t, l, h.line_no, &pre);
+    if (st != PKSS_OK)
+        return st;
+    if (pre + 3 < l) { /* "OFF490 518 0" (ModelNet) */
+        glued = t + pre + 3;
+        glued_len = l - pre - 3;
+    }
+    st = off_counts(ctx, &h, glued, glued_len, counts);
+    if (st != PKSS_OK)
+        return st;
     if (counts[0] == 0)
         return io_fail(ctx, PKSS_ERR_EMPTY_INPUT,
                        "OFF: the header declares 0 vertices");
-    left = io_cursor_left(&c);
+    left = io_cursor_left(&h.c);
     if (io_mul_u64(counts[0], 6, &need) != 0 || need > left + 1)
         return io_fail(ctx, PKSS_ERR_FORMAT,
                        "OFF: header says %llu vertices but only %llu bytes "
@@ -324,34 +441,10 @@ pkss_status io_read_off(io_ctx *ctx, double **xyz, size_t *n)
     out = io_alloc_points(ctx, counts[0]);
     if (!out)
         return PKSS_ERR_OUT_OF_MEMORY;
-    for (i = 0; i < counts[0]; i++) {
-        size_t a;
-        if (!next_content_line(&c, &s, &e, &line_no)) {
-            free(out);
-            return io_fail(ctx, PKSS_ERR_FORMAT,
-                           "OFF: truncated at byte %llu: expected %llu "
-                           "vertices, got %llu",
-                           (unsigned long long)ctx->size,
-                           (unsigned long long)counts[0],
-                           (unsigned long long)i);
-        }
-        for (a = 0; a < 3; a++) {
-            if (!io_line_token(&s, e, 0, &t, &l)) {
-                free(out);
-                return io_fail(ctx, PKSS_ERR_FORMAT,
-                               "OFF: line %lu: vertex %llu has fewer than 3 "
-                               "coordinates",
-                               (unsigned long)line_no, (unsigned long long)i);
-            }
-            if (io_parse_double(t, l, &out[3 * i + a]) != 0) {
-                free(out);
-                return io_fail(ctx, PKSS_ERR_FORMAT,
-                               "OFF: line %lu: vertex %llu: '%s' is not a "
-                               "number",
-                               (unsigned long)line_no, (unsigned long long)i,
-                               io_quote(t, l, q, sizeof q));
-            }
-        }
+    st = off_vertices(ctx, &h, counts[0], out);
+    if (st != PKSS_OK) {
+        free(out);
+        return st;
     }
     *xyz = out;
     *n = (size_t)counts[0];

@@ -564,6 +564,131 @@ static int prefix_fits(pkss_format fmt, const unsigned char *d, size_t n)
     return memchr(d, 0, upto) == NULL;
 }
 
+/* The state of one bounded read: the buffer so far, the most that may be
+ * read (limit) and whether the prefix was checked. */
+typedef struct io_reader {
+    FILE *f;
+    const char *path;
+    char *err;
+    size_t err_size;
+    unsigned char *b;
+    size_t cap, len, limit;
+    int regular, checked;
+} io_reader;
+
+/* What read_bounded does once the prefix is checked. */
+enum { RB_GO_ON, RB_STOP, RB_MAPPED };
+
+/* Refuses a directory and a file too large for size_t; sets the limit
+ * (regular: st_size, stream: IO_STREAM_CAP) and the first buffer. */
+static pkss_status rb_start(io_reader *r)
+{
+    struct stat st;
+    r->regular = fstat(fileno(r->f), &st) == 0 && S_ISREG(st.st_mode);
+    if (fstat(fileno(r->f), &st) == 0 && S_ISDIR(st.st_mode)) {
+        set_err(r->err, r->err_size, "%s: is a directory", r->path);
+        return PKSS_ERR_IO;
+    }
+    if (r->regular && (uintmax_t)st.st_size >= (uintmax_t)SIZE_MAX) {
+        set_err(r->err, r->err_size, "%s: file too large", r->path);
+        return PKSS_ERR_OUT_OF_MEMORY;
+    }
+    r->limit = r->regular ? (size_t)st.st_size : IO_STREAM_CAP;
+    r->cap = r->limit < IO_PREFIX ? r->limit + 1 : IO_PREFIX;
+    r->len = 0;
+    r->b = (unsigned char *)malloc(r->cap);
+    if (!r->b) {
+        set_err(r->err, r->err_size, "%s: out of memory", r->path);
+        return PKSS_ERR_OUT_OF_MEMORY;
+    }
+    return PKSS_OK;
+}
+
+/* The prefix is in: resolves *fmt and stops when it cannot fit (the parser
+ * then names what is wrong from these bytes). A regular file larger than
+ * the prefix is then mapped (*action RB_MAPPED, with *buf and *size), else
+ * given one block for all of it. */
+static pkss_status rb_after_prefix(io_reader *r, pkss_format *fmt,
+                                   unsigned char **buf, size_t *size,
+                                   int *action)
+{
+    r->checked = 1;
+    *action = RB_GO_ON;
+    if (*fmt == PKSS_FORMAT_AUTO)
+        *fmt = pkss_format_from_content(r->b, r->len);
+    if (*fmt == PKSS_FORMAT_AUTO || !prefix_fits(*fmt, r->b, r->len)) {
+        *action = RB_STOP;
+        return PKSS_OK;
+    }
+    if (!r->regular || r->cap >= r->limit + 1)
+        return PKSS_OK;
+    /* Map a regular file rather than copy it: only the pages the parser
+     * touches become resident, so a huge or sparse file whose header
+     * declares a few points costs a few pages. A failed map falls back to
+     * reading it whole. (Shrinking the file while it is read raises
+     * SIGBUS.) */
+    void *m = mmap(NULL, r->limit, PROT_READ, MAP_PRIVATE, fileno(r->f), 0);
+    if (m != MAP_FAILED) {
+        free(r->b);
+        *buf = (unsigned char *)m;
+        *size = r->limit;
+        *action = RB_MAPPED;
+        return PKSS_OK;
+    }
+    unsigned char *nb = (unsigned char *)realloc(r->b, r->limit + 1);
+    if (!nb) {
+        free(r->b);
+        set_err(r->err, r->err_size, "%s: out of memory reading %zu bytes",
+                r->path, r->limit);
+        return PKSS_ERR_OUT_OF_MEMORY;
+    }
+    r->b = nb;
+    r->cap = r->limit + 1;
+    return PKSS_OK;
+}
+
+/* A full buffer doubles (a stream's size is not known), up to limit + 1. */
+static pkss_status rb_make_room(io_reader *r)
+{
+    if (r->len != r->cap)
+        return PKSS_OK;
+    size_t grow = r->cap * 2 < r->limit + 1 ? r->cap * 2 : r->limit + 1;
+    unsigned char *nb = (unsigned char *)realloc(r->b, grow);
+    if (!nb) {
+        free(r->b);
+        set_err(r->err, r->err_size, "%s: out of memory after %zu bytes",
+                r->path, r->len);
+        return PKSS_ERR_OUT_OF_MEMORY;
+    }
+    r->b = nb;
+    r->cap = grow;
+    return PKSS_OK;
+}
+
+/* One fread, no further than the prefix until it is checked; *stop is set
+ * at the end of the input once the prefix is checked. */
+static pkss_status rb_read_some(io_reader *r, int *stop)
+{
+    size_t want = r->cap - r->len;
+    if (!r->checked && r->len + want > IO_PREFIX)
+        want = IO_PREFIX - r->len;
+    size_t got = fread(r->b + r->len, 1, want, r->f);
+    r->len += got;
+    *stop = 0;
+    if (got == 0) {
+        if (ferror(r->f)) {
+            int e = errno;
+            free(r->b);
+            set_err(r->err, r->err_size, "%s: read error: %s", r->path,
+                    e ? strerror(e) : "unknown error");
+            return PKSS_ERR_IO;
+        }
+        if (r->checked)
+            *stop = 1;
+    }
+    return PKSS_OK;
+}
+
 /* Reads a file or stream whole, bounded: a regular file by its size, a
  * stream by IO_STREAM_CAP. The first IO_PREFIX bytes are checked against
  * the format first, so a wrong file (/dev/zero, a huge file of another
@@ -575,99 +700,45 @@ static pkss_status read_bounded(FILE *f, const char *path,
                                    size_t *size, int *mapped, char *err,
                                    size_t err_size)
 {
-    struct stat st;
-    int regular = fstat(fileno(f), &st) == 0 && S_ISREG(st.st_mode);
-    if (fstat(fileno(f), &st) == 0 && S_ISDIR(st.st_mode)) {
-        set_err(err, err_size, "%s: is a directory", path);
-        return PKSS_ERR_IO;
-    }
-    if (regular && (uintmax_t)st.st_size >= (uintmax_t)SIZE_MAX) {
-        set_err(err, err_size, "%s: file too large", path);
-        return PKSS_ERR_OUT_OF_MEMORY;
-    }
-    size_t limit = regular ? (size_t)st.st_size : IO_STREAM_CAP;
-    size_t cap = limit < IO_PREFIX ? limit + 1 : IO_PREFIX, len = 0;
-    unsigned char *b = (unsigned char *)malloc(cap);
-    if (!b) {
-        set_err(err, err_size, "%s: out of memory", path);
-        return PKSS_ERR_OUT_OF_MEMORY;
-    }
-    int checked = 0;
-    for (;;) {
-        if (!checked && (len >= IO_PREFIX || len == limit || feof(f))) {
-            checked = 1;
-            if (*fmt == PKSS_FORMAT_AUTO)
-                *fmt = pkss_format_from_content(b, len);
-            if (*fmt == PKSS_FORMAT_AUTO || !prefix_fits(*fmt, b, len))
-                break; /* unknown, or the parser names what is wrong from these bytes */
-            if (regular && cap < limit + 1) {
-                /* Map a regular file rather than copy it: only the pages
-                 * the parser touches become resident, so a huge or sparse
-                 * file whose header declares a few points costs a few
-                 * pages. A failed map falls back to reading it whole.
-                 * (Shrinking the file while it is read raises SIGBUS.) */
-                void *m = mmap(NULL, limit, PROT_READ, MAP_PRIVATE,
-                               fileno(f), 0);
-                if (m != MAP_FAILED) {
-                    free(b);
-                    *buf = (unsigned char *)m;
-                    *size = limit;
-                    *mapped = 1;
-                    return PKSS_OK;
-                }
+    io_reader r;
+    pkss_status rc;
+    int stop = 0, action;
+    memset(&r, 0, sizeof r);
+    r.f = f;
+    r.path = path;
+    r.err = err;
+    r.err_size = err_size;
+    rc = rb_start(&r);
+    while (rc == PKSS_OK && !stop) {
+        if (!r.checked && (r.len >= IO_PREFIX || r.len == r.limit || feof(f))) {
+            rc = rb_after_prefix(&r, fmt, buf, size, &action);
+            if (rc != PKSS_OK)
+                return rc;
+            if (action == RB_MAPPED) {
+                *mapped = 1;
+                return PKSS_OK;
             }
-            if (regular && cap < limit + 1) { /* all of it, in one block */
-                unsigned char *nb = (unsigned char *)realloc(b, limit + 1);
-                if (!nb) {
-                    free(b);
-                    set_err(err, err_size, "%s: out of memory reading %zu bytes",
-                            path, limit);
-                    return PKSS_ERR_OUT_OF_MEMORY;
-                }
-                b = nb;
-                cap = limit + 1;
-            }
-        }
-        if (len == limit)
-            break;
-        if (len == cap) {
-            size_t grow = cap * 2 < limit + 1 ? cap * 2 : limit + 1;
-            unsigned char *nb = (unsigned char *)realloc(b, grow);
-            if (!nb) {
-                free(b);
-                set_err(err, err_size, "%s: out of memory after %zu bytes", path, len);
-                return PKSS_ERR_OUT_OF_MEMORY;
-            }
-            b = nb;
-            cap = grow;
-        }
-        size_t want = cap - len;
-        if (!checked && len + want > IO_PREFIX)
-            want = IO_PREFIX - len;
-        size_t got = fread(b + len, 1, want, f);
-        len += got;
-        if (got == 0) {
-            if (ferror(f)) {
-                int e = errno;
-                free(b);
-                set_err(err, err_size, "%s: read error: %s", path,
-                        e ? strerror(e) : "unknown error");
-                return PKSS_ERR_IO;
-            }
-            if (checked)
+            if (action == RB_STOP)
                 break;
         }
+        if (r.len == r.limit)
+            break;
+        rc = rb_make_room(&r);
+        if (rc == PKSS_OK)
+            rc = rb_read_some(&r, &stop);
     }
-    if (!regular && len == limit && fgetc(f) != EOF) {
-        free(b);
+    if (rc != PKSS_OK)
+        return rc;
+    if (!r.regular && r.len == r.limit && fgetc(f) != EOF) {
+        free(r.b);
         set_err(err, err_size,
                 "%s: more than %zu bytes from a pipe or device (the limit for "
                 "streams); read it from a regular file",
                 path, (size_t)IO_STREAM_CAP);
         return PKSS_ERR_FORMAT;
     }
-    *buf = b;
-    *size = len;
+    *buf = r.b;
+    *size = r.len;
     return PKSS_OK;
 }
 
