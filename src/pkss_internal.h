@@ -42,6 +42,24 @@ typedef struct pkss__params {
 
 void pkss__params_default(pkss__params *p);
 
+/* ------------------------------------------------------------- assess */
+/* What assess.c concludes about a registration (its inputs are declared in
+ * the refine section). The features are the confidence model's inputs, kept
+ * for the white-box fitting tool (tools/confidence/). */
+#define PKSS__ASSESS_FEATURES 8
+#define PKSS__MAX_ALTERNATIVES 48 /* candidates + the symmetry test's turns */
+typedef struct pkss__assessment {
+    double confidence;
+    int ambiguous;
+    int symmetry;               /* pkss_symmetry */
+    uint32_t order;             /* pkss_result.symmetry_order */
+    double axis[3], center[3];  /* target frame, caller units */
+    pkss_alternative alt[PKSS__MAX_ALTERNATIVES];
+    size_t n_alt;
+    double features[PKSS__ASSESS_FEATURES];
+    double seconds;             /* spent assessing (its cost, measured) */
+} pkss__assessment;
+
 /* ------------------------------------------------------------- context */
 struct pkss__device; /* OpenCL state, device.c / evaluate_cl.c */
 
@@ -70,6 +88,7 @@ struct pkss_context {
     pkss__run *run;            /* the call under way, or NULL */
     pkss_candidate candidates[PKSS_MAX_CANDIDATES]; /* last registration */
     size_t n_candidates;
+    pkss__assessment assess;   /* of the last registration (n_candidates > 0) */
 };
 
 /* Progress and cancellation (progress.c). */
@@ -91,6 +110,8 @@ void pkss__deliver_result(pkss_result *dst, const pkss_result *src);
 void pkss__clear_result(pkss_result *dst);
 void pkss__deliver_candidate(pkss_candidate *dst, const pkss_candidate *src);
 void pkss__deliver_param_info(pkss_param_info *dst, const pkss_param_info *src);
+void pkss__deliver_alternative(pkss_alternative *dst,
+                               const pkss_alternative *src);
 /* 1 when the field tables name every field of their structs (tests). */
 int pkss__abi_tables_complete(void);
 
@@ -436,6 +457,43 @@ pkss_status pkss__icp_overlap(const pkss__icp_view *src,
                               const pkss__icp_view *tgt,
                               const pkss__pose *pose, double *overlap,
                               double *rms, double *fit);
+
+/* ------------------------------------------------------------- assess */
+/* The end of a registration as assess.c reads it (register.c fills it once
+ * the winner and every candidate are final). Poses in ir are pre-shape
+ * (source -> template); cand holds the same candidates as delivered. */
+typedef struct pkss__assess_input {
+    const pkss__icp_view *sv, *tv;  /* full views: source, template */
+    double tgt_sigma;               /* template's RMS radius ... */
+    const double *tgt_centroid;     /* ... and centroid, caller units */
+    const pkss__icp_result *ir;     /* per candidate */
+    const pkss_candidate *cand;     /* per candidate: stage, score */
+    size_t n;
+    int winner;
+    int refine;                     /* refinement on: near ties polished */
+} pkss__assess_input;
+
+/* The confidence model's features (docs/design.md, "Confidence"). */
+enum {
+    PKSS__FEAT_FIT = 0,       /* winner's fit */
+    PKSS__FEAT_OVERLAP = 1,   /* winner's overlap */
+    PKSS__FEAT_MARGIN = 2,    /* fit - best fit in another basin that no
+                                 symmetry explains (capped) */
+    PKSS__FEAT_RMS = 3,       /* RMS in template spacings (capped) */
+    PKSS__FEAT_ASYMMETRY = 4, /* |f_s - f_t| */
+    PKSS__FEAT_COVER_MIN = 5, /* min(f_s, f_t) */
+    PKSS__FEAT_SCORE = 6,     /* the winner's search score G, radians */
+    PKSS__FEAT_REFINED = 7    /* 1 if the winner was fully refined */
+};
+
+/* Alternatives, symmetry (tested by turning the winner about the target's
+ * principal axes) and confidence of a finished registration. Fails only as
+ * the ICP does (cancelled, out of memory). */
+pkss_status pkss__assess(const pkss__assess_input *in, pkss__assessment *out);
+/* The logistic model on features x[PKSS__ASSESS_FEATURES]. */
+double pkss__confidence(const double *x);
+/* Copies the assessment into the result's fields. */
+void pkss__assess_store(const pkss__assessment *a, pkss_result *res);
 
 /* ------------------------------------------------------------ OpenCL */
 /* evaluate_cl.c; all return PKSS_ERR_UNSUPPORTED when built without it. */

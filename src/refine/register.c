@@ -134,6 +134,7 @@ static pkss_status check_result_arg(pkss_context *ctx, pkss_result *result)
 typedef struct outcome {
     pkss_result res;
     pkss_candidate cand[PKSS_MAX_CANDIDATES];
+    pkss__assessment assess;
 } outcome;
 
 static void deliver(pkss_context *ctx, pkss_result *dst, const outcome *o)
@@ -141,6 +142,7 @@ static void deliver(pkss_context *ctx, pkss_result *dst, const outcome *o)
     pkss__deliver_result(dst, &o->res);
     memcpy(ctx->candidates, o->cand, sizeof o->cand);
     ctx->n_candidates = o->res.n_candidates;
+    ctx->assess = o->assess;
 }
 
 /* A failed call: no pose in the result, no candidates in the context. */
@@ -641,6 +643,14 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
     res->fit = out->cand[best].fit;
     res->timings.search = cs->search_seconds;
     res->timings.refine = cs->refine_seconds;
+    /* How far to trust it: alternatives, symmetry, confidence (assess.c). */
+    pkss__assess_input ai = {&v.sv, &v.tv, tgt->sigma, tgt->centroid, cs->ir,
+                             out->cand, cs->n, best, p->refine};
+    if ((st = pkss__assess(&ai, &out->assess)) != PKSS_OK) {
+        st = fail_step(ctx, st);
+        goto done;
+    }
+    pkss__assess_store(&out->assess, res);
 
 done:
     pkss__search_setup_free(ss);
