@@ -464,6 +464,7 @@ pkss_status pkss__icp_overlap(const pkss__icp_view *src,
  * (source -> template); cand holds the same candidates as delivered. */
 typedef struct pkss__assess_input {
     const pkss__icp_view *sv, *tv;  /* full views: source, template */
+    const pkss__icp_view *svc, *tvc; /* coarse views (may be NULL) */
     double tgt_sigma;               /* template's RMS radius ... */
     const double *tgt_centroid;     /* ... and centroid, caller units */
     const pkss__icp_result *ir;     /* per candidate */

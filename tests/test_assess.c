@@ -59,7 +59,7 @@ static void cylinder_surface(pkss_test_rng *rng, double h, double *xyz, size_t n
 typedef struct fixture {
     pkss_context *ctx;
     pkss_cloud *cloud;
-    pkss__icp_view v;
+    pkss__icp_view v, vc;
     pkss__icp_result ir[2];
     pkss_candidate cand[2];
     pkss__assess_input in;
@@ -97,8 +97,9 @@ static void setup(fixture *f, const double *xyz, size_t n, double winner_fit_dro
     f->ir[0].fit -= winner_fit_drop;
     double *T = f->cand[0].T_target_source;
     T[0] = T[5] = T[10] = T[15] = 1.0;
-    f->in = (pkss__assess_input){&f->v, &f->v, f->cloud->sigma, f->cloud->centroid,
-                                 f->ir, f->cand, 2, 0, 1};
+    pkss__icp_view_coarse(f->cloud, &f->vc);
+    f->in = (pkss__assess_input){&f->v, &f->v, &f->vc, &f->vc, f->cloud->sigma,
+                                 f->cloud->centroid, f->ir, f->cand, 2, 0, 1};
 }
 
 static void teardown(fixture *f)

@@ -644,8 +644,8 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
     res->timings.search = cs->search_seconds;
     res->timings.refine = cs->refine_seconds;
     /* How far to trust it: alternatives, symmetry, confidence (assess.c). */
-    pkss__assess_input ai = {&v.sv, &v.tv, tgt->sigma, tgt->centroid, cs->ir,
-                             out->cand, cs->n, best, p->refine};
+    pkss__assess_input ai = {&v.sv, &v.tv, &v.svc, &v.tvc, tgt->sigma, tgt->centroid,
+                             cs->ir, out->cand, cs->n, best, p->refine};
     if ((st = pkss__assess(&ai, &out->assess)) != PKSS_OK) {
         st = fail_step(ctx, st);
         goto done;
