@@ -22,9 +22,11 @@ For an estimate T (4x4 similarity, x_t = s R x_s + t) against T_gt:
            source (the whole template carried into the source frame by
            T_gt^-1), aligned by T, lies on the clean target's surface: mean
            point-to-plane distance to the nearest clean target point (its
-           12-NN PCA normal) no larger than that of the truth turned by
-           STRICT_RRE_DEG about the shape's centroid (the mean over
-           SYM_AXES seeded random axes: the strict bar's own miss), and the
+           12-NN PCA normal) no larger than that of the strict bars' own
+           misses: the truth turned by STRICT_RRE_DEG about the shape's
+           centroid, or shifted by STRICT_RTE_PCT of its diameter (the
+           larger of the two means over SYM_AXES seeded random axes: a
+           sphere has no rotation miss at all), and the
            scale error < 2 % (a symmetry turns the shape, it does not
            resize it). Real pairs have no clean whole
            shape (a slide along a wall would pass): the errors alone decide.
@@ -81,15 +83,19 @@ class Evaluator:
         normals, _ = C.knn_stats(clean_t)
         c = clean_t.mean(axis=0)
         rng = np.random.default_rng(0)
-        miss = []
+        diam = C.diameter(clean_t)
+        turn, shift = [], []
         for _ in range(SYM_AXES):
             a = rng.normal(size=3)
-            a *= np.radians(STRICT_RRE_DEG) / np.linalg.norm(a)
+            a /= np.linalg.norm(a)
             K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
-            th = np.linalg.norm(a)
-            Rm = np.eye(3) + np.sin(th) / th * K + (1 - np.cos(th)) / th ** 2 * K @ K
-            miss.append(self._plane((clean_t - c) @ Rm.T + c, tree, clean_t, normals))
-        self._sym = (tree, clean_t, normals, clean_s, float(np.mean(miss)))
+            th = np.radians(STRICT_RRE_DEG)
+            Rm = np.eye(3) + np.sin(th) * K + (1 - np.cos(th)) * K @ K
+            turn.append(self._plane((clean_t - c) @ Rm.T + c, tree, clean_t, normals))
+            shift.append(self._plane(clean_t + a * STRICT_RTE_PCT / 100 * diam, tree, clean_t,
+                                     normals))
+        miss = max(float(np.mean(turn)), float(np.mean(shift)))
+        self._sym = (tree, clean_t, normals, clean_s, miss)
 
     @staticmethod
     def _plane(al, tree, clean_t, normals):
