@@ -508,7 +508,66 @@ typedef struct pkss_result {
     char note[256];             /* why a flag is set, or "" (PKSS_NOTE_SIZE) */
     /* EXPERIMENTAL (may change in a 1.x minor release): */
     double prepare_seconds;     /* device preparation within this call */
+    /* Added after 1.0 (stable; filled when struct_size covers them): how
+     * far to trust the pose (docs/design.md, "Confidence and ambiguity"). */
+    double confidence;          /* estimated probability in [0, 1] that the
+                                   pose is right: rotation < 5 deg,
+                                   translation < 2 % of the diameter, scale
+                                   < 2 %, or equivalent under a symmetry */
+    uint32_t ambiguous;         /* 1: other poses fit as well as this one
+                                   within the fit's noise (the
+                                   alternatives, or a continuous symmetry) */
+    uint32_t n_alternatives;    /* poses read by pkss_context_alternative() */
+    int32_t symmetry;           /* pkss_symmetry, tested on the data */
+    uint32_t symmetry_order;    /* DISCRETE: n of the 360/n-degree turn
+                                   about symmetry_axis that fits (0: none
+                                   is a whole fraction of a turn) */
+    double symmetry_axis[3];    /* unit axis in the target frame through
+                                   symmetry_center: AXIAL the shape's axis,
+                                   DISCRETE the first alternative's; else 0 */
+    double symmetry_center[3];  /* a point on that axis (the target's
+                                   centroid), target units */
 } pkss_result;
+
+/** Symmetry of the registered shape (pkss_result.symmetry), found by turning
+ *  the aligned source about the target's centre and measuring the fit. */
+typedef enum pkss_symmetry {
+    PKSS_SYMMETRY_NONE = 0,      /* no other pose fits as well */
+    PKSS_SYMMETRY_DISCRETE = 1,  /* a few other poses fit as well: listed
+                                    by pkss_context_alternative() */
+    PKSS_SYMMETRY_AXIAL = 2,     /* any turn about symmetry_axis fits
+                                    (a cylinder, a cone): not listed */
+    PKSS_SYMMETRY_SPHERICAL = 3  /* any turn fits (a sphere) */
+} pkss_symmetry;
+
+/** Another pose that fits as well as the result's (pkss_result.ambiguous);
+ *  read with pkss_context_alternative(). */
+typedef struct pkss_alternative {
+    size_t struct_size;         /* set by pkss_alternative_init() */
+    double T_target_source[16]; /* its pose, row-major 4x4 */
+    double fit;                 /* as pkss_candidate.fit */
+    double overlap;             /* as pkss_candidate.overlap */
+    double angle_degrees;       /* the turn that takes the result's aligned
+                                   source onto this pose's, (0, 180] ... */
+    double axis[3];             /* ... about this unit axis (target frame)
+                                   through center */
+    double center[3];           /* target units */
+    int32_t candidate;          /* the candidate it was refined from, or -1
+                                   for a turn found by the symmetry test */
+} pkss_alternative;
+
+/** pkss_alternative_init() : zeroes struct_size bytes, sets struct_size. */
+PKSS_API void pkss_alternative_init(pkss_alternative *alternative,
+                                    size_t struct_size);
+
+/** pkss_context_alternative() :
+ *  Alternative `index` (0 .. n_alternatives-1, best fit first) of the last
+ *  successful registration on ctx; valid until the next registration call.
+ *  @return PKSS_OK, PKSS_ERR_NULL_ARGUMENT or PKSS_ERR_INVALID_ARGUMENT
+ *          (index out of range, or struct_size too small). */
+PKSS_API pkss_status pkss_context_alternative(const pkss_context *ctx,
+                                              size_t index,
+                                              pkss_alternative *alternative);
 
 /** pkss_result_init() : zeroes the struct_size bytes of *result and sets
  *  result->struct_size; pass sizeof *result. */

@@ -42,6 +42,24 @@ typedef struct pkss__params {
 
 void pkss__params_default(pkss__params *p);
 
+/* ------------------------------------------------------------- assess */
+/* What assess.c concludes about a registration (its inputs are declared in
+ * the refine section). The features are the confidence model's inputs, kept
+ * for the white-box fitting tool (tools/confidence/). */
+#define PKSS__ASSESS_FEATURES 8
+#define PKSS__MAX_ALTERNATIVES 48 /* candidates + the symmetry test's turns */
+typedef struct pkss__assessment {
+    double confidence;
+    int ambiguous;
+    int symmetry;               /* pkss_symmetry */
+    uint32_t order;             /* pkss_result.symmetry_order */
+    double axis[3], center[3];  /* target frame, caller units */
+    pkss_alternative alt[PKSS__MAX_ALTERNATIVES];
+    size_t n_alt;
+    double features[PKSS__ASSESS_FEATURES];
+    double seconds;             /* spent assessing (its cost, measured) */
+} pkss__assessment;
+
 /* ------------------------------------------------------------- context */
 struct pkss__device; /* OpenCL state, device.c / evaluate_cl.c */
 
@@ -92,6 +110,7 @@ struct pkss_context {
     pkss__run *run;            /* the call under way, or NULL */
     pkss_candidate candidates[PKSS_MAX_CANDIDATES]; /* last registration */
     size_t n_candidates;
+    pkss__assessment assess;   /* of the last registration (n_candidates > 0) */
 };
 
 /* Progress and cancellation (progress.c). */
@@ -113,6 +132,8 @@ void pkss__deliver_result(pkss_result *dst, const pkss_result *src);
 void pkss__clear_result(pkss_result *dst);
 void pkss__deliver_candidate(pkss_candidate *dst, const pkss_candidate *src);
 void pkss__deliver_param_info(pkss_param_info *dst, const pkss_param_info *src);
+void pkss__deliver_alternative(pkss_alternative *dst,
+                               const pkss_alternative *src);
 /* 1 when the field tables name every field of their structs (tests). */
 int pkss__abi_tables_complete(void);
 
@@ -359,6 +380,8 @@ size_t pkss__select_top_k(const float *scores, const float *gc,
                           size_t n_offsets, size_t top_k, pkss__pick *out);
 
 /* refine: src/refine/icp.h (the ICP engine), src/refine/stages.h */
+
+/* assess: src/refine/assess.h (confidence, alternatives, symmetry) */
 
 /* ------------------------------------------------------------ OpenCL */
 /* evaluate_cl.c; all return PKSS_ERR_UNSUPPORTED when built without it. */

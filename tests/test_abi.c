@@ -170,6 +170,66 @@ static void test_failed_call_clears(void **state)
     pkss_context_destroy(ctx);
 }
 
+/* The fields added after 1.0 (confidence, ambiguity, symmetry) and the
+ * alternatives follow the growth rule: a 1.0-sized result is not written
+ * past, an alternative cut short gets only its whole fields, and a failed
+ * call leaves no alternatives. A generated box has some (its half turns). */
+static void test_alternatives_growth(void **state)
+{
+    (void)state;
+    pkss_test_rng rng = {pkss_test_seed("test_abi", 3)};
+    enum { N = 8000 };
+    double *box = malloc(3 * N * sizeof *box);
+    assert_non_null(box);
+    const double dims[3] = {1.0, 0.7, 0.45};
+    for (size_t i = 0; i < N; ++i) {
+        int face = (int)(pkss_test_uniform(&rng) * 3);
+        for (int d = 0; d < 3; ++d)
+            box[3 * i + d] = (pkss_test_uniform(&rng) - 0.5) * dims[d];
+        box[3 * i + face] = (pkss_test_uniform(&rng) < 0.5 ? -0.5 : 0.5) * dims[face];
+    }
+    pkss_context *ctx = ref_context(0);
+    unsigned char *buf = malloc(sizeof(pkss_result) + 16);
+    assert_non_null(buf);
+    memset(buf, 0xCD, sizeof(pkss_result) + 16);
+    pkss_result *old = (pkss_result *)buf;
+    old->struct_size = offsetof(pkss_result, confidence); /* a 1.0 caller's size */
+    assert_int_equal(pkss_register(ctx, box, N, box, N, old), PKSS_OK);
+    for (size_t i = offsetof(pkss_result, confidence); i < sizeof(pkss_result) + 16; ++i)
+        assert_int_equal(buf[i], 0xCD);
+    pkss_result res;
+    pkss_result_init(&res, sizeof res);
+    assert_int_equal(pkss_register(ctx, box, N, box, N, &res), PKSS_OK);
+    assert_true(res.confidence >= 0.0 && res.confidence <= 1.0);
+    assert_true(res.ambiguous);
+    assert_true(res.n_alternatives > 0);
+    assert_int_equal(res.symmetry, PKSS_SYMMETRY_DISCRETE);
+    size_t cut = offsetof(pkss_alternative, candidate);
+    unsigned char abuf[sizeof(pkss_alternative) + 16];
+    memset(abuf, 0xCD, sizeof abuf);
+    pkss_alternative *a = (pkss_alternative *)abuf;
+    a->struct_size = cut;
+    assert_int_equal(pkss_context_alternative(ctx, 0, a), PKSS_OK);
+    assert_true(a->angle_degrees > 0.0 && a->angle_degrees <= 180.0);
+    for (size_t i = cut; i < sizeof abuf; ++i)
+        assert_int_equal(abuf[i], 0xCD);
+    pkss_alternative whole;
+    pkss_alternative_init(&whole, sizeof whole);
+    assert_int_equal(pkss_context_alternative(ctx, res.n_alternatives, &whole),
+                     PKSS_ERR_INVALID_ARGUMENT);
+    assert_int_equal(pkss_context_alternative(NULL, 0, &whole), PKSS_ERR_NULL_ARGUMENT);
+    assert_int_equal(pkss_context_alternative(ctx, 0, NULL), PKSS_ERR_NULL_ARGUMENT);
+    whole.struct_size = 0;
+    assert_int_equal(pkss_context_alternative(ctx, 0, &whole), PKSS_ERR_INVALID_ARGUMENT);
+    pkss_alternative_init(&whole, sizeof whole);
+    assert_int_equal(pkss_register(ctx, NULL, N, box, N, &res), PKSS_ERR_NULL_ARGUMENT);
+    assert_int_equal(pkss_context_alternative(ctx, 0, &whole), PKSS_ERR_INVALID_ARGUMENT);
+    assert_true(res.confidence == 0.0 && res.n_alternatives == 0);
+    free(buf);
+    free(box);
+    pkss_context_destroy(ctx);
+}
+
 /* The table agrees with every other parameter call. */
 static void test_param_table(void **state)
 {
@@ -358,6 +418,7 @@ int main(void)
         cmocka_unit_test(test_old_caller),
         cmocka_unit_test(test_struct_sizes),
         cmocka_unit_test(test_failed_call_clears),
+        cmocka_unit_test(test_alternatives_growth),
         cmocka_unit_test(test_param_table),
         cmocka_unit_test(test_progress_stages),
         cmocka_unit_test(test_cancel),

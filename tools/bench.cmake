@@ -13,3 +13,13 @@ if(TARGET pkss_static)
   set_target_properties(bench_search PROPERTIES
     C_STANDARD 11 C_STANDARD_REQUIRED ON C_EXTENSIONS OFF)
 endif()
+
+# --- conf_dump (the confidence model's features, tools/confidence/fit.py) ---
+if(TARGET pkss_static)
+  add_executable(conf_dump "${CMAKE_CURRENT_LIST_DIR}/confidence/conf_dump.c")
+  target_link_libraries(conf_dump PRIVATE pkss_static m)
+  target_include_directories(conf_dump PRIVATE "${PROJECT_SOURCE_DIR}/src"
+                             "${PROJECT_SOURCE_DIR}/kernels")
+  set_target_properties(conf_dump PROPERTIES
+    C_STANDARD 11 C_STANDARD_REQUIRED ON C_EXTENSIONS OFF)
+endif()

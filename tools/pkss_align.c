@@ -16,6 +16,7 @@
  *   3    I/O error: cannot read an input or write an output, stdout too
  *   4    bad input data (malformed file, NaN without --drop-nonfinite, ...)
  *   5    registration failure (library status: device, no consensus, ...)
+ *   6    the confidence is below --min-confidence (outputs written)
  *   130  interrupted by SIGINT (143 SIGTERM): cancelled, no output written
  */
 #define _XOPEN_SOURCE 700 /* sigaction */
@@ -362,6 +363,15 @@ int main(int argc, char **argv)
     if (o.verbose)
         cli_verbose(&run, ctx, &res);
     rc = write_outputs(outs, &run, ctx, st, &res, src, ns, cloud_fmt);
+    if (rc == EXIT_OK && o.min_confidence >= 0.0 &&
+        res.confidence < o.min_confidence) {
+        cli_fail(LOW_CONFIDENCE_STATUS,
+                 "confidence %.3f is below --min-confidence %g: the pose may "
+                 "be wrong%s (the outputs were written)",
+                 res.confidence, o.min_confidence,
+                 res.ambiguous ? "; other poses fit as well (ambiguous)" : "");
+        rc = EXIT_LOW_CONFIDENCE;
+    }
 
 done:
     for (i = 0; i < N_OUTS; i++)

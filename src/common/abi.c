@@ -24,7 +24,17 @@ static const field RESULT_FIELDS[] = {
     F(pkss_result, target_counts),   F(pkss_result, timings),
     F(pkss_result, backend),         F(pkss_result, flags),
     F(pkss_result, device),          F(pkss_result, note),
-    F(pkss_result, prepare_seconds),
+    F(pkss_result, prepare_seconds), F(pkss_result, confidence),
+    F(pkss_result, ambiguous),       F(pkss_result, n_alternatives),
+    F(pkss_result, symmetry),        F(pkss_result, symmetry_order),
+    F(pkss_result, symmetry_axis),   F(pkss_result, symmetry_center),
+};
+
+static const field ALTERNATIVE_FIELDS[] = {
+    F(pkss_alternative, T_target_source), F(pkss_alternative, fit),
+    F(pkss_alternative, overlap),         F(pkss_alternative, angle_degrees),
+    F(pkss_alternative, axis),            F(pkss_alternative, center),
+    F(pkss_alternative, candidate),
 };
 
 static const field CANDIDATE_FIELDS[] = {
@@ -83,6 +93,12 @@ void pkss__deliver_candidate(pkss_candidate *dst, const pkss_candidate *src)
     copy_fields(dst, src, CANDIDATE_FIELDS, N_OF(CANDIDATE_FIELDS));
 }
 
+void pkss__deliver_alternative(pkss_alternative *dst,
+                               const pkss_alternative *src)
+{
+    copy_fields(dst, src, ALTERNATIVE_FIELDS, N_OF(ALTERNATIVE_FIELDS));
+}
+
 void pkss__deliver_param_info(pkss_param_info *dst, const pkss_param_info *src)
 {
     copy_fields(dst, src, PARAM_INFO_FIELDS, N_OF(PARAM_INFO_FIELDS));
@@ -98,6 +114,12 @@ void pkss_candidate_init(pkss_candidate *candidate, size_t struct_size)
 {
     if (candidate)
         pkss__struct_init(candidate, struct_size);
+}
+
+void pkss_alternative_init(pkss_alternative *alternative, size_t struct_size)
+{
+    if (alternative)
+        pkss__struct_init(alternative, struct_size);
 }
 
 /* Each table lists every field of its struct: gaps between fields are no
@@ -118,5 +140,6 @@ int pkss__abi_tables_complete(void)
 {
     return complete(RESULT_FIELDS, N_OF(RESULT_FIELDS), sizeof(pkss_result)) &&
            complete(CANDIDATE_FIELDS, N_OF(CANDIDATE_FIELDS), sizeof(pkss_candidate)) &&
+           complete(ALTERNATIVE_FIELDS, N_OF(ALTERNATIVE_FIELDS), sizeof(pkss_alternative)) &&
            complete(PARAM_INFO_FIELDS, N_OF(PARAM_INFO_FIELDS), sizeof(pkss_param_info));
 }

@@ -224,6 +224,19 @@ pkss_status pkss_context_candidate(const pkss_context *ctx, size_t index,
     return PKSS_OK;
 }
 
+pkss_status pkss_context_alternative(const pkss_context *ctx, size_t index,
+                                     pkss_alternative *alternative)
+{
+    if (!ctx || !alternative)
+        return PKSS_ERR_NULL_ARGUMENT;
+    /* a failed call leaves no candidates, hence no alternatives either */
+    if (ctx->n_candidates == 0 || index >= ctx->assess.n_alt ||
+        alternative->struct_size < sizeof(size_t))
+        return PKSS_ERR_INVALID_ARGUMENT;
+    pkss__deliver_alternative(alternative, &ctx->assess.alt[index]);
+    return PKSS_OK;
+}
+
 pkss_status pkss_param_bounds(pkss_param param, double *lower, double *upper,
                               double *default_value)
 {

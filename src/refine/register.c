@@ -5,6 +5,7 @@
  * a wide second search and a slide search where the winner shows a part,
  * and the winner composed back into the caller's coordinates.
  */
+#include "refine/assess.h"
 #include "refine/stages.h"
 
 #include <math.h>
@@ -53,6 +54,7 @@ static pkss_status check_result_arg(pkss_context *ctx, pkss_result *result)
 typedef struct outcome {
     pkss_result res;
     pkss_candidate cand[PKSS_MAX_CANDIDATES];
+    pkss__assessment assess;
 } outcome;
 
 static void deliver(pkss_context *ctx, pkss_result *dst, const outcome *o)
@@ -60,6 +62,7 @@ static void deliver(pkss_context *ctx, pkss_result *dst, const outcome *o)
     pkss__deliver_result(dst, &o->res);
     memcpy(ctx->candidates, o->cand, sizeof o->cand);
     ctx->n_candidates = o->res.n_candidates;
+    ctx->assess = o->assess;
 }
 
 /* A failed call: no pose in the result, no candidates in the context. */
@@ -316,6 +319,15 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
     out->res.n_rotations = (uint32_t)ss->rot.n_rotations;
     out->res.n_offsets = (uint32_t)ss->n_offsets;
     report(src, tgt, rs, n_first, best, out);
+    /* How far to trust it: alternatives, symmetry, confidence (assess.c). */
+    pkss__assess_input ai = {&rs->v.sv, &rs->v.tv, &rs->v.svc, &rs->v.tvc, tgt->sigma,
+                             tgt->centroid, rs->ir, out->cand, rs->n, best,
+                             ctx->params.refine};
+    if ((st = pkss__assess(&ai, &out->assess)) != PKSS_OK) {
+        st = fail_step(ctx, st);
+        goto done;
+    }
+    pkss__assess_store(&out->assess, &out->res);
 done:
     pkss__search_setup_free(ss);
     pkss__free(ss);

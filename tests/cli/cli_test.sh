@@ -42,7 +42,7 @@ run() {
         grep -Eq '^pkss-(align|info): [A-Z_]+: .+' "$ERR" ||
             fail "stderr lacks a 'pkss-align: STATUS_NAME: detail' line"
     fi
-    if [ "$rc" -gt 5 ]; then fail "undocumented exit code $rc"; fi
+    if [ "$rc" -gt 6 ]; then fail "undocumented exit code $rc"; fi
 }
 
 stderr_has() { grep -Eq -e "$1" "$ERR" || fail "stderr does not match /$1/"; }
@@ -255,6 +255,40 @@ make_pair() { # dir
     awk '{ printf "%.9f %.9f %.9f\n", 2 * $2 + 1, -2 * $1, 2 * $3 + 0.5 }' "$1/s.xyz" > "$1/t.xyz"
 }
 FAST=(--backend reference)
+
+# --min-confidence X: exit 6 with one PKSS_LOW_CONFIDENCE line when the
+# result's confidence is below X, every requested output written all the
+# same; at or under the confidence, exit 0. Bad values are usage errors.
+case_min_confidence() {
+    make_pair "$WORK"
+    run 0 "$ALIGN" "$WORK/s.xyz" "$WORK/t.xyz" "${FAST[@]}" --json "$WORK/r.json"
+    stdout_has ' confidence=[01]\.[0-9]{3} ambiguous=(yes|no) symmetry=[a-z]+ '
+    local c
+    c=$(sed -n 's/^  "confidence": \([0-9.eE+-]*\),$/\1/p' "$WORK/r.json")
+    [ -n "$c" ] || fail "no confidence in the JSON"
+    grep -q '"ambiguous": \(true\|false\)' "$WORK/r.json" || fail "no ambiguous in the JSON"
+    grep -q '"alternatives": \[' "$WORK/r.json" || fail "no alternatives in the JSON"
+    local above below
+    above=$(awk -v c="$c" 'BEGIN { printf "%.17g", c + (1 - c) / 2 + 1e-12 }')
+    below=$(awk -v c="$c" 'BEGIN { printf "%.17g", c / 2 }')
+    awk -v a="$above" 'BEGIN { exit !(a <= 1) }' || fail "confidence $c leaves no room above"
+    run 6 "$ALIGN" "$WORK/s.xyz" "$WORK/t.xyz" "${FAST[@]}" --min-confidence "$above" \
+        --json "$WORK/low.json" --matrix "$WORK/low.txt" -o "$WORK/low.ply"
+    stderr_has '^pkss-align: PKSS_LOW_CONFIDENCE: confidence [0-9.]+ is below --min-confidence'
+    [ "$(grep -c . "$ERR")" -eq 1 ] || fail "more than one stderr line"
+    stdout_has '^[-0-9.e]+ [-0-9.e]+ [-0-9.e]+ [-0-9.e]+$'
+    [ -s "$WORK/low.json" ] && [ -s "$WORK/low.txt" ] && [ -s "$WORK/low.ply" ] ||
+        fail "an output was not written"
+    grep -q '"status": "PKSS_OK"' "$WORK/low.json" || fail "the JSON lacks the result"
+    run 0 "$ALIGN" "$WORK/s.xyz" "$WORK/t.xyz" "${FAST[@]}" --min-confidence "$below" -q
+    run 0 "$ALIGN" "$WORK/s.xyz" "$WORK/t.xyz" "${FAST[@]}" --min-confidence 0 -q
+    run 2 "$ALIGN" a.ply b.ply --min-confidence 1.5
+    stderr_has 'min-confidence.*not a number in \[0, 1\]'
+    run 2 "$ALIGN" a.ply b.ply --min-confidence high
+    run 2 "$ALIGN" a.ply b.ply --min-confidence
+    run 0 "$ALIGN" --help
+    stdout_has '^  6 +the result.s confidence is below --min-confidence'
+}
 
 # Every write is checked, standard output's too.
 case_stdout_full() {

@@ -89,6 +89,7 @@ def load_rows(path):
                     r[k] = float(r[k]) if r[k] not in ("", "nan") else math.nan
             r["rr"] = r["rr"] == "True"
             r["strict"] = r["strict"] == "True"
+            r["sym"] = r.get("sym") == "True"  # absent in older CSVs
             rows.append(r)
     return rows
 
@@ -127,6 +128,7 @@ def stats(sel):
         "gt_cos": float(np.nanmean(a("gt_cos"))),
         "rr": float(np.mean([r["rr"] for r in sel])),
         "strict": float(np.mean([r["strict"] for r in sel])),
+        "sym": sum(r.get("sym", False) for r in sel),
         "rre_median": float(np.nanmedian(a("rre_deg"))),
         "fail": sum(r["status"] != "ok" for r in sel),
     }
@@ -173,8 +175,10 @@ def strict_table(rows):
     methods = method_order(rows)
     cols = [(lab, pred) for lab, pred in STRICT_COLUMNS
             if any(pred(r) for r in rows)]
-    out = ["### Strict success (RRE < 5 deg, RTE < 2 % of diameter, scale error < 2 %)\n",
-           "Cell: strict success rate / median rotation error (deg) / median time (s).\n"]
+    out = ["### Strict success (RRE < 5 deg, RTE < 2 % of diameter, scale error < 2 %, "
+           "or a pose equivalent under a symmetry of the shape: metrics.py)\n",
+           "Cell: strict success rate / median rotation error (deg) / median time (s); "
+           "[+N sym]: N of the successes are symmetric equivalents.\n"]
     hdr = ["Method"] + [f"{lab} (n={len({r['case_id'] for r in rows if pred(r)})})"
                         for lab, pred in cols]
     out.append("| " + " | ".join(hdr) + " |")
@@ -186,8 +190,9 @@ def strict_table(rows):
             if st is None:
                 cells.append("-")
             else:
+                sym = f" [+{st['sym']} sym]" if st["sym"] else ""
                 cells.append(f"**{100 * st['strict']:.0f}%** / {st['rre_median']:.1f} / "
-                             f"{st['time_median']:.2f}")
+                             f"{st['time_median']:.2f}{sym}")
         out.append("| " + " | ".join(cells) + " |")
     fails = [(m, stats(_sel(rows, m, lambda r: True))["fail"]) for m in methods]
     fails = [f"{LABELS[m]}: {n}" for m, n in fails if n]

@@ -28,7 +28,8 @@ if HERE not in sys.path:
 FIELDS = ["case_id", "case", "obj", "index", "seed", "method", "status", "time_s",
           "mse", "mse_n", "gt_cos", "rr", "rre_deg", "rte_pct", "scale_err_pct",
           "strict", "scale", "gt_scale", "t_err_raw", "n_source", "n_target",
-          "overlap", "pair_kind", "missing", "overlap_est", "device", "info", "message"]
+          "overlap", "pair_kind", "missing", "overlap_est", "device", "info", "message",
+          "sym"]
 
 ALL_METHODS = ["pkss", "identity", "o3d_icp", "o3d_fpfh_ransac", "o3d_fpfh_ransac_icp",
                "o3d_fgr", "small_gicp", "probreg_cpd"]
@@ -221,7 +222,7 @@ def main(argv=None):
                         import numpy as np
                         met = ev(T if T is not None else np.eye(4))
                         if status != "ok":
-                            met["rr"] = met["strict"] = False
+                            met["rr"] = met["strict"] = met["sym"] = False
                         row = {"case_id": case.case_id, "case": case.case, "obj": case.obj,
                                "index": case.index, "seed": case.seed, "method": m,
                                "status": status, "time_s": f"{dt:.4f}",
@@ -237,6 +238,7 @@ def main(argv=None):
                                   "scale_err_pct", "scale", "gt_scale", "t_err_raw"):
                             row[k] = f"{met[k]:.6g}"
                         row["rr"], row["strict"] = met["rr"], met["strict"]
+                        row["sym"] = met["sym"]
                         wr.writerow(row)
                         f.flush()
                         bar.update(f"{m} {case.case_id}")

@@ -79,3 +79,36 @@ def test_metrics_known_errors():
     assert not m["strict"]
     s, R, t = decompose(T)
     assert np.isclose(s, 1.03) and np.allclose(R, Rz)
+
+
+def _turned(case, deg, axis):
+    """The truth followed by a turn of `deg` about `axis` through the target's centre."""
+    a = np.asarray(axis, float) / np.linalg.norm(axis)
+    K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    th = np.radians(deg)
+    R = np.eye(3) + np.sin(th) * K + (1 - np.cos(th)) * K @ K
+    c = case.target.mean(axis=0)
+    M = np.eye(4)
+    M[:3, :3] = R
+    M[:3, 3] = c - R @ c
+    return M @ case.T_gt
+
+
+def test_symmetric_rule_counts_images_not_misses():
+    """A box turned half-way about an axis is right (a symmetric image), a
+    turn of 90 degrees is not (the box is 1 x 0.7 x 0.45), and neither is
+    an 8-degree miss; generated shapes need no shared data."""
+    case = C.make_synthetic("box", "noise_g0.2", 0, 0)
+    ev = Evaluator(case)
+    half = ev(_turned(case, 180.0, [0, 0, 1]))
+    assert half["strict"] and half["sym"], half
+    quarter = ev(_turned(case, 90.0, [0, 0, 1]))
+    assert not quarter["strict"] and not quarter["sym"]
+    miss = ev(_turned(case, 8.0, [1, 1, 0]))
+    assert not miss["strict"] and not miss["sym"]
+    truth = ev(case.T_gt)
+    assert truth["strict"] and not truth["sym"]  # right by the errors themselves
+    cyl = C.make_synthetic("cylinder", "similarity", 0, 0)
+    ev = Evaluator(cyl)
+    assert ev(_turned(cyl, 37.0, [0, 0, 1]))["sym"]  # any turn about its axis
+    assert not ev(_turned(cyl, 37.0, [1, 0, 0]))["strict"]

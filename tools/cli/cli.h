@@ -26,6 +26,7 @@ enum {
     EXIT_IO = 3,          /* cannot read or write a file (stdout too) */
     EXIT_DATA = 4,        /* bad input data */
     EXIT_FAILURE_REG = 5, /* the registration failed (library status) */
+    EXIT_LOW_CONFIDENCE = 6, /* below --min-confidence (outputs written) */
     EXIT_INTERRUPTED = 130
 };
 
@@ -33,6 +34,9 @@ enum {
  * name for a file that cannot be read or written. */
 #define USAGE_STATUS "PKSS_ERR_INVALID_ARGUMENT"
 #define IO_STATUS "PKSS_ERR_IO"
+/* A result below --min-confidence is the tool's verdict, not a library
+ * status: it has a name of its own (tools/README.md). */
+#define LOW_CONFIDENCE_STATUS "PKSS_LOW_CONFIDENCE"
 
 void cli_fail(const char *status, const char *fmt, ...)
 #if defined(__GNUC__)
@@ -60,6 +64,7 @@ typedef struct cli_options {
     const char *out_cloud, *json, *matrix;
     pkss_format out_format; /* from --output-format, else extension (AUTO) */
     int ascii, quiet, verbose;
+    double min_confidence;       /* --min-confidence, or -1 when not given */
     pkss_format fmt_source, fmt_target;
     cli_setting settings[CLI_MAX_SETTINGS];
     int n_settings;
@@ -150,6 +155,7 @@ void cli_summary(FILE *f, const pkss_result *r);
 void cli_verbose(const cli_run *run, const pkss_context *ctx,
                  const pkss_result *r);
 const char *cli_stage_name(uint32_t stage);
+const char *cli_symmetry_name(int32_t symmetry);
 const char *cli_progress_stage_name(int32_t stage);
 double cli_rotation_angle_deg(const double *R);
 

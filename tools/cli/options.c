@@ -409,6 +409,12 @@ static void print_help(void)
         "status and detail\n"
         "  --matrix FILE           the 4x4 T_target_source only (%%.17g)\n"
         "  -q, --quiet             print only the matrix\n"
+        "  --min-confidence X      exit 6 when the result's confidence (the "
+        "estimated\n"
+        "                          probability that the pose is right) is "
+        "below X in\n"
+        "                          [0, 1]; the outputs are written all the "
+        "same\n"
         "  -v, --verbose           progress as it happens, stage times, "
         "point counts and\n"
         "                          candidates on stderr\n"
@@ -449,6 +455,9 @@ static void print_help(void)
         "  5    registration failure (no device, OpenCL error, no "
         "consensus, out of\n"
         "       memory, internal error)\n"
+        "  6    the result's confidence is below --min-confidence (the "
+        "outputs were\n"
+        "       written)\n"
         "  130  interrupted (SIGINT; 143 for SIGTERM): the run is "
         "cancelled, no output\n"
         "       file is written or changed\n"
@@ -512,6 +521,7 @@ static const struct tool_opt {
     {"target-format", ARG_REQUIRED, 't'},
     {"output-format", ARG_REQUIRED, 'O'},
     {"set", ARG_REQUIRED, 'S'},       {"no-cull", ARG_NONE, 'C'},
+    {"min-confidence", ARG_REQUIRED, 'c'},
 };
 #define N_TOOL_OPTS (sizeof k_tool_opts / sizeof k_tool_opts[0])
 
@@ -545,6 +555,14 @@ static int tool_option(cli_options *o, int id, const char *opt,
         }
         return 0;
     case 'S': return parse_set(o, val);
+    case 'c':
+        if (parse_dbl(val, &o->min_confidence) != 0 || o->min_confidence < 0.0 ||
+            o->min_confidence > 1.0) {
+            cli_fail(USAGE_STATUS, "%s: '%s' is not a number in [0, 1]", opt,
+                     val ? val : "");
+            return -1;
+        }
+        return 0;
     case 'C':
         if ((p = param_by_name("cull_mutual")) != NULL &&
             add_setting(o, p, opt, "off") != 0)
@@ -677,6 +695,7 @@ int cli_parse_args(int argc, char **argv, cli_options *o)
     int i, npos = 0, only_pos = 0;
     memset(o, 0, sizeof *o);
     o->fmt_source = o->fmt_target = PKSS_FORMAT_AUTO;
+    o->min_confidence = -1.0;
     if (load_params() != 0)
         return -1;
     for (i = 1; i < argc; i++) {

@@ -245,6 +245,44 @@ static void json_candidates(FILE *f, const pkss_context *ctx,
     fputs(r->n_candidates ? "\n  ]" : "]", f);
 }
 
+const char *cli_symmetry_name(int32_t symmetry)
+{
+    switch (symmetry) {
+    case PKSS_SYMMETRY_NONE: return "none";
+    case PKSS_SYMMETRY_DISCRETE: return "discrete";
+    case PKSS_SYMMETRY_AXIAL: return "axial";
+    case PKSS_SYMMETRY_SPHERICAL: return "spherical";
+    default: return "unknown";
+    }
+}
+
+/* The poses that fit as well (pkss_context_alternative), each with the
+ * turn from the result's. */
+static void json_alternatives(FILE *f, const pkss_context *ctx,
+                              const pkss_result *r)
+{
+    uint32_t i;
+    fputc('[', f);
+    for (i = 0; i < r->n_alternatives; i++) {
+        pkss_alternative a;
+        pkss_alternative_init(&a, sizeof a);
+        if (pkss_context_alternative(ctx, i, &a) != PKSS_OK)
+            break;
+        fputs(i ? ",\n    {" : "\n    {", f);
+        fputs("\"T_target_source\": ", f);
+        json_matrix(f, a.T_target_source, 4, 4);
+        json_field(f, "fit", a.fit);
+        json_field(f, "overlap", a.overlap);
+        json_field(f, "angle_deg", a.angle_degrees);
+        fputs(", \"axis\": ", f);
+        json_array(f, a.axis, 3);
+        fputs(", \"center\": ", f);
+        json_array(f, a.center, 3);
+        fprintf(f, ", \"candidate\": %d}", (int)a.candidate);
+    }
+    fputs(r->n_alternatives ? "\n  ]" : "]", f);
+}
+
 void cli_json(FILE *f, const cli_run *run, const pkss_context *ctx,
               pkss_status st, const pkss_result *r)
 {
@@ -299,6 +337,17 @@ void cli_json(FILE *f, const cli_run *run, const pkss_context *ctx,
     json_num(f, r->overlap);
     fputs(",\n  \"fit\": ", f);
     json_num(f, r->fit);
+    fputs(",\n  \"confidence\": ", f);
+    json_num(f, r->confidence);
+    fprintf(f, ",\n  \"ambiguous\": %s,\n  \"symmetry\": {\"kind\": ",
+            r->ambiguous ? "true" : "false");
+    json_str(f, cli_symmetry_name(r->symmetry));
+    fprintf(f, ", \"order\": %u, \"axis\": ", (unsigned)r->symmetry_order);
+    json_array(f, r->symmetry_axis, 3);
+    fputs(", \"center\": ", f);
+    json_array(f, r->symmetry_center, 3);
+    fputs("},\n  \"alternatives\": ", f);
+    json_alternatives(f, ctx, r);
     fprintf(f, ",\n  \"winner\": %u,\n  \"n_candidates\": %u,\n"
                "  \"candidates\": ",
             (unsigned)r->winner, (unsigned)r->n_candidates);
@@ -340,9 +389,11 @@ void cli_summary(FILE *f, const pkss_result *r)
     memcpy(dev, r->device, PKSS_NAME_SIZE);
     dev[PKSS_NAME_SIZE] = '\0';
     fprintf(f, "scale=%.9g rotation_deg=%.6f rms=%.6g overlap=%.4f "
+               "confidence=%.3f ambiguous=%s symmetry=%s "
                "time_s=%.3f device=%s\n",
             r->scale, cli_rotation_angle_deg(r->rotation), r->rms,
-            r->overlap, r->timings.total, dev);
+            r->overlap, r->confidence, r->ambiguous ? "yes" : "no",
+            cli_symmetry_name(r->symmetry), r->timings.total, dev);
 }
 
 static void print_counts(const char *which, const pkss_counts *c)

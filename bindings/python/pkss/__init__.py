@@ -53,7 +53,8 @@ from ._convert import open3d_points as _open3d_points
 from ._lib import ffi, lib, library_path
 
 __all__ = [
-    "register", "Context", "Cloud", "Result", "Candidate", "Timings", "Counts", "PairCounts",
+    "register", "Context", "Cloud", "Result", "Candidate", "Alternative", "Symmetry",
+    "Timings", "Counts", "PairCounts",
     "devices", "Device", "DeviceList", "parameters", "Parameter", "param_bounds",
     "default_params", "PARAM_NAMES",
     "Error", "InvalidArgument", "OutOfMemory", "DeviceError", "NumericalError", "Cancelled",
@@ -517,6 +518,44 @@ class Candidate(_Value):
 
 
 @dataclass(frozen=True, repr=False, eq=False)
+class Alternative(_Value):
+    """Another pose that fits as well as the result's (``Result.ambiguous``):
+    the result's aligned source turned by ``angle`` degrees about ``axis``
+    through ``center`` (target frame)."""
+
+    transform: np.ndarray  #: 4x4 float64 T_target_source of this pose
+    fit: float  #: as ``Candidate.fit``
+    overlap: float  #: as ``Candidate.overlap``
+    angle: float  #: degrees, (0, 180]
+    axis: np.ndarray  #: (3,) unit axis of the turn, target frame
+    center: np.ndarray  #: (3,) a point on that axis, target units
+    #: the candidate it was refined from, or -1 for a turn found by the
+    #: symmetry test
+    candidate: int
+
+    def apply(self, points: ArrayLike) -> np.ndarray:
+        """Map (N, 3) source points into the target frame with this pose."""
+        return _transform_points(self.transform, points)
+
+    def __repr__(self) -> str:
+        return ("Alternative(angle=%.1f deg, axis=%s, fit=%.3f, candidate=%d)"
+                % (self.angle, np.array2string(self.axis, precision=3), self.fit,
+                   self.candidate))
+
+
+@dataclass(frozen=True)
+class Symmetry:
+    """The symmetry the data shows (``Result.symmetry``): ``kind`` is
+    ``"none"``, ``"discrete"`` (a few poses fit: ``Result.alternatives``),
+    ``"axial"`` (any turn about ``axis`` fits) or ``"spherical"``."""
+
+    kind: str
+    order: int  #: discrete: n of the 360/n-degree turn about axis (0: none)
+    axis: Tuple[float, float, float]  #: unit axis (axial, discrete), else zeros
+    center: Tuple[float, float, float]  #: a point on the axis, target units
+
+
+@dataclass(frozen=True, repr=False, eq=False)
 class Result(_Value):
     """A registration: ``transform`` maps source points into the target frame,
     ``x_t ~= scale * rotation @ x_s + translation``. Plain data: picklable,
@@ -548,6 +587,15 @@ class Result(_Value):
     #: EXPERIMENTAL (may change in a minor release): seconds of device
     #: preparation within this call (0 when the device was already open)
     prepare_seconds: float = 0.0
+    #: estimated probability in [0, 1] that the pose is right (rotation < 5
+    #: deg, translation < 2 % of the diameter, scale < 2 %, or equivalent
+    #: under a symmetry of the shape); calibrated on generated pairs
+    confidence: float = 0.0
+    #: True when other poses fit as well within the fit's noise: the
+    #: ``alternatives``, or a continuous symmetry
+    ambiguous: bool = False
+    alternatives: Tuple[Alternative, ...] = ()  #: best fit first
+    symmetry: Symmetry = Symmetry("none", 0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
 
     def apply(self, points: ArrayLike) -> np.ndarray:
         """Map (N, 3) source points into the target frame: ``s R x + t``."""
@@ -556,9 +604,12 @@ class Result(_Value):
     def __repr__(self) -> str:
         axis_angle = np.degrees(np.arccos(np.clip((np.trace(self.rotation) - 1) / 2, -1, 1)))
         return ("Result(scale=%.6g, rotation=%.3f deg, translation=%s, score=%.4g rad, "
-                "rms=%.4g, overlap=%.3f, fit=%.3f, backend=%r, device=%r%s, total=%.3f s)"
+                "rms=%.4g, overlap=%.3f, fit=%.3f, confidence=%.3f%s, backend=%r, device=%r%s, "
+                "total=%.3f s)"
                 % (self.scale, axis_angle, np.array2string(self.translation, precision=4),
-                   self.score, self.rms, self.overlap, self.fit, self.backend, self.device,
+                   self.score, self.rms, self.overlap, self.fit, self.confidence,
+                   ", ambiguous (%s)" % self.symmetry.kind if self.ambiguous else "",
+                   self.backend, self.device,
                    ", fell_back=True" if self.fell_back else "", self.timings.total))
 
 
@@ -603,8 +654,33 @@ def _candidates(ctx_ptr: Any, n: int) -> List[Candidate]:
     return out
 
 
-def _result(r: Any, candidates: List[Candidate]) -> Result:
+_SYMMETRY_NAMES = {v: k[len("PKSS_SYMMETRY_"):].lower()
+                   for v, k in ffi.typeof("pkss_symmetry").elements.items()}
+
+
+def _alternatives(ctx_ptr: Any, n: int) -> List[Alternative]:
+    """The alternatives of the last registration on ctx (as _candidates)."""
+    out = []
+    a = ffi.new("pkss_alternative *")
+    for i in range(n):
+        lib.pkss_alternative_init(a, ffi.sizeof("pkss_alternative"))
+        st = lib.pkss_context_alternative(ctx_ptr, i, a)
+        if st:
+            _raise(st, _str(lib.pkss_context_last_error(ctx_ptr)) or
+                   "pkss_context_alternative(%d)" % i)
+        out.append(Alternative(_matrix(a.T_target_source, (4, 4)), float(a.fit),
+                               float(a.overlap), float(a.angle_degrees),
+                               _matrix(a.axis, (3,)), _matrix(a.center, (3,)),
+                               int(a.candidate)))
+    return out
+
+
+def _result(r: Any, candidates: List[Candidate],
+            alternatives: Tuple[Alternative, ...] = ()) -> Result:
     t = r.timings
+    sym = Symmetry(_SYMMETRY_NAMES.get(int(r.symmetry), str(int(r.symmetry))),
+                   int(r.symmetry_order), tuple(float(v) for v in r.symmetry_axis),
+                   tuple(float(v) for v in r.symmetry_center))
     return Result(
         transform=_matrix(r.T_target_source, (4, 4)), scale=float(r.scale),
         rotation=_matrix(r.rotation, (3, 3)), translation=_matrix(r.translation, (3,)),
@@ -616,7 +692,8 @@ def _result(r: Any, candidates: List[Candidate]) -> Result:
         counts=PairCounts(_counts(r.source_counts), _counts(r.target_counts)),
         backend=_BACKEND_NAMES.get(int(r.backend), str(int(r.backend))), device=_str(r.device),
         fit=float(r.fit), fell_back=bool(r.flags & lib.PKSS_FLAG_FELL_BACK), note=_str(r.note),
-        prepare_seconds=float(r.prepare_seconds))
+        prepare_seconds=float(r.prepare_seconds), confidence=float(r.confidence),
+        ambiguous=bool(r.ambiguous), alternatives=tuple(alternatives), symmetry=sym)
 
 
 # ------------------------------------------------------------------- progress
@@ -1071,8 +1148,9 @@ class Context:
                     for c in temp:
                         c.close()
             cands = _candidates(ptr, int(res.n_candidates))
+            alts = _alternatives(ptr, int(res.n_alternatives))
             asked = self._set.get("device") or os.environ.get("PKSS_DEVICE")
-        result = _result(res, cands)
+        result = _result(res, cands, alts)
         if result.fell_back and asked:
             # AUTO falling back is by design when nothing was asked for; a
             # device named and not used is worth telling.
