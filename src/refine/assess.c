@@ -181,15 +181,10 @@ static void add_alternative(state *S, pkss__assessment *out,
     a->candidate = candidate;
 }
 
-/* The symmetry test on the data: where the target's PCA variances show a
- * degenerate pair (or triple), turns about the distinct axis by angles no
- * discrete symmetry has; then the orders n of 360/n turns about it, and
- * half turns about each principal axis. Every turn that fits within the
- * noise is an alternative. */
-static pkss_status symmetry_test(state *S, pkss__assessment *out)
+/* The target's principal axes (rows of axes) and variances, largest first. */
+static void principal_axes(const pkss__icp_view *tv, double ev[3], double axes[3][3])
 {
-    const pkss__icp_view *tv = S->in->tv;
-    double C[9] = {0}, ev[3], V[9];
+    double C[9] = {0}, V[9];
     for (size_t i = 0; i < tv->m; ++i) {
         const double *x = tv->pts + 3 * i;
         for (int r = 0; r < 3; ++r)
@@ -197,56 +192,59 @@ static pkss_status symmetry_test(state *S, pkss__assessment *out)
                 C[3 * r + c] += x[r] * x[c];
     }
     pkss__eig_sym3(C, ev, V);
-    double axes[3][3];
     for (int k = 0; k < 3; ++k)
         for (int d = 0; d < 3; ++d)
             axes[k][d] = V[3 * d + k];
-    int eq01 = ev[0] > 0 && (ev[0] - ev[1]) / ev[0] < ASSESS_EIG_EQUAL;
-    int eq12 = ev[1] > 0 && (ev[1] - ev[2]) / ev[1] < ASSESS_EIG_EQUAL;
+}
+
+#define N_CONTINUOUS_TESTS (sizeof CONTINUOUS_TEST_DEG / sizeof CONTINUOUS_TEST_DEG[0])
+
+/* *all = 1 when every continuous-test turn about axis (or, with axes, about
+ * each of the three axes in turn) fits within the noise and stays put. */
+static pkss_status continuous_turns(state *S, const double (*axes)[3], int n_axes,
+                                    int *all)
+{
     pkss__pose P;
     double fit, ov, moved;
-    size_t n_test = sizeof CONTINUOUS_TEST_DEG / sizeof CONTINUOUS_TEST_DEG[0];
-    if (eq01 && eq12) {
-        int all = 1;
-        for (int k = 0; k < 3 && all; ++k) {
-            PKSS_FORWARD(probe(S, axes[k], CONTINUOUS_TEST_DEG[k % n_test], &P, &fit,
-                               &ov, &moved));
-            all = ties(S, fit) && moved < ASSESS_SNAP;
-        }
-        if (all) {
-            out->symmetry = PKSS_SYMMETRY_SPHERICAL;
-            return PKSS_OK;
+    *all = 1;
+    int n = n_axes > 1 ? n_axes : (int)N_CONTINUOUS_TESTS;
+    for (int k = 0; k < n && *all; ++k) {
+        const double *axis = axes[n_axes > 1 ? k : 0];
+        PKSS_FORWARD(probe(S, axis, CONTINUOUS_TEST_DEG[(size_t)k % N_CONTINUOUS_TESTS],
+                           &P, &fit, &ov, &moved));
+        *all = ties(S, fit) && moved < ASSESS_SNAP;
+    }
+    return PKSS_OK;
+}
+
+/* The highest order n <= ASSESS_MAX_ORDER whose 360/n turn about axis ties:
+ * its turns are alternatives. */
+static pkss_status discrete_order(state *S, const double *axis, pkss__assessment *out)
+{
+    pkss__pose P;
+    double fit, ov, moved;
+    for (int n = ASSESS_MAX_ORDER; n >= 2 && out->order == 0; --n) {
+        PKSS_FORWARD(probe(S, axis, 360.0 / n, &P, &fit, &ov, &moved));
+        if (!ties(S, fit))
+            continue;
+        out->order = (uint32_t)n;
+        memcpy(out->axis, axis, sizeof out->axis);
+        add_alternative(S, out, &P, fit, ov, -1);
+        for (int k = 2; k < n; ++k) {
+            PKSS_FORWARD(probe(S, axis, 360.0 * k / n, &P, &fit, &ov, &moved));
+            add_alternative(S, out, &P, fit, ov, -1);
         }
     }
-    int axis_k = -1; /* the distinct axis of a degenerate pair */
-    if (eq01 != eq12)
-        axis_k = eq01 ? 2 : 0;
-    if (axis_k >= 0) {
-        int all = 1;
-        for (size_t j = 0; j < n_test && all; ++j) {
-            PKSS_FORWARD(probe(S, axes[axis_k], CONTINUOUS_TEST_DEG[j], &P, &fit, &ov,
-                               &moved));
-            all = ties(S, fit) && moved < ASSESS_SNAP;
-        }
-        if (all) {
-            out->symmetry = PKSS_SYMMETRY_AXIAL;
-            memcpy(out->axis, axes[axis_k], sizeof out->axis);
-        } else {
-            for (int n = ASSESS_MAX_ORDER; n >= 2 && out->order == 0; --n) {
-                PKSS_FORWARD(probe(S, axes[axis_k], 360.0 / n, &P, &fit, &ov, &moved));
-                if (!ties(S, fit))
-                    continue;
-                out->order = (uint32_t)n;
-                memcpy(out->axis, axes[axis_k], sizeof out->axis);
-                add_alternative(S, out, &P, fit, ov, -1);
-                for (int k = 2; k < n; ++k) {
-                    PKSS_FORWARD(probe(S, axes[axis_k], 360.0 * k / n, &P, &fit, &ov,
-                                       &moved));
-                    add_alternative(S, out, &P, fit, ov, -1);
-                }
-            }
-        }
-    }
+    return PKSS_OK;
+}
+
+/* Half turns about each principal axis (but a symmetry axis already
+ * covered); a tie is an alternative, and order 2 if nothing else was found. */
+static pkss_status half_turns(state *S, const double (*axes)[3], int axis_k,
+                              pkss__assessment *out)
+{
+    pkss__pose P;
+    double fit, ov, moved;
     for (int k = 0; k < 3; ++k) {
         if (k == axis_k && (out->order % 2 == 0 || out->symmetry))
             continue; /* the half turn about the axis is covered already */
@@ -260,6 +258,38 @@ static pkss_status symmetry_test(state *S, pkss__assessment *out)
         }
     }
     return PKSS_OK;
+}
+
+/* The symmetry test on the data: where the target's PCA variances show a
+ * degenerate pair (or triple), turns about the distinct axis by angles no
+ * discrete symmetry has; then the orders n of 360/n turns about it, and
+ * half turns about each principal axis. Every turn that fits within the
+ * noise is an alternative. */
+static pkss_status symmetry_test(state *S, pkss__assessment *out)
+{
+    double ev[3], axes[3][3];
+    principal_axes(S->in->tv, ev, axes);
+    int eq01 = ev[0] > 0 && (ev[0] - ev[1]) / ev[0] < ASSESS_EIG_EQUAL;
+    int eq12 = ev[1] > 0 && (ev[1] - ev[2]) / ev[1] < ASSESS_EIG_EQUAL;
+    int all;
+    if (eq01 && eq12) {
+        PKSS_FORWARD(continuous_turns(S, (const double (*)[3])axes, 3, &all));
+        if (all) {
+            out->symmetry = PKSS_SYMMETRY_SPHERICAL;
+            return PKSS_OK;
+        }
+    }
+    int axis_k = eq01 != eq12 ? (eq01 ? 2 : 0) : -1; /* a degenerate pair's distinct axis */
+    if (axis_k >= 0) {
+        PKSS_FORWARD(continuous_turns(S, (const double (*)[3])&axes[axis_k], 1, &all));
+        if (all) {
+            out->symmetry = PKSS_SYMMETRY_AXIAL;
+            memcpy(out->axis, axes[axis_k], sizeof out->axis);
+        } else {
+            PKSS_FORWARD(discrete_order(S, axes[axis_k], out));
+        }
+    }
+    return half_turns(S, (const double (*)[3])axes, axis_k, out);
 }
 
 /* A turn R (relative to the winner) that a found symmetry explains: listed
