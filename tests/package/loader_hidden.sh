@@ -12,11 +12,11 @@ mkdir -p "$work"
 export PKSS_OPENCL_LIBRARY=/nonexistent/libOpenCL.so.1
 out=$("$info")
 echo "$out" | sed -n '/OpenCL devices/,+1p'
-echo "$out" | grep -q '^OpenCL devices: none' ||
+grep -q '^OpenCL devices: none' <<< "$out" ||
     { echo "FAIL: pkss-info lists devices without the loader"; exit 1; }
-echo "$out" | grep -q 'the OpenCL ICD loader (libOpenCL.so.1) could not be loaded: /nonexistent/libOpenCL.so.1: ' ||
+grep -q 'the OpenCL ICD loader (libOpenCL.so.1) could not be loaded: /nonexistent/libOpenCL.so.1: ' <<< "$out" ||
     { echo "FAIL: pkss-info does not say that the loader is missing"; exit 1; }
-echo "$out" | grep -q 'install ocl-icd-libopencl1 and pocl-opencl-icd' ||
+grep -q 'install ocl-icd-libopencl1 and pocl-opencl-icd' <<< "$out" ||
     { echo "FAIL: pkss-info does not say what to install"; exit 1; }
 "$align" "$data/airplane_0001_s.ply" "$data/airplane_0001_t.ply" \
     --matrix "$work/T.txt" --json "$work/result.json" 2>"$work/stderr.txt"
