@@ -14,8 +14,9 @@ if(TARGET pkss_static)
     C_STANDARD 11 C_STANDARD_REQUIRED ON C_EXTENSIONS OFF)
 endif()
 
-# --- conf_dump (the confidence model's features, tools/confidence/fit.py) ---
-if(TARGET pkss_static)
+# --- conf_dump (the confidence model's features, tools/confidence/fit.py);
+# a development tool, absent from the Python sdist ---
+if(TARGET pkss_static AND EXISTS "${CMAKE_CURRENT_LIST_DIR}/confidence/conf_dump.c")
   add_executable(conf_dump "${CMAKE_CURRENT_LIST_DIR}/confidence/conf_dump.c")
   target_link_libraries(conf_dump PRIVATE pkss_static m)
   target_include_directories(conf_dump PRIVATE "${PROJECT_SOURCE_DIR}/src"
