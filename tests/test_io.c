@@ -776,6 +776,8 @@ static void test_npy_npz(void **state)
         {"regressions/npy/hostile-huge-shape.npy", PKSS_ERR_FORMAT, "truncated at byte"},
         {"regressions/npy/hostile-header-4g.npy", PKSS_ERR_FORMAT, "at most 65536"},
         {"corpus/npz/points_and_more.npz:nope", PKSS_ERR_FORMAT, "no array 'nope'"},
+        /* a member name's escape sequence is shown defused */
+        {"regressions/npz/hostile-name-escape.npz:nope", PKSS_ERR_FORMAT, "a?[31m"},
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; ++i) {
         loaded r = read_fixture(bad[i].file);

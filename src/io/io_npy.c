@@ -501,6 +501,10 @@ static void npz_list_name(npz_scan *sc, const zip_entry *e)
     if (sc->names_len + nl + 3 < sizeof sc->names - 4) {
         snprintf(sc->names + sc->names_len, sizeof sc->names - sc->names_len, "%s%.*s",
                  sc->names_len ? ", " : "", (int)nl, e->name);
+        /* a hostile name's control bytes must not reach a terminal */
+        for (size_t k = sc->names_len; sc->names[k]; ++k)
+            if ((unsigned char)sc->names[k] < 0x20 || (unsigned char)sc->names[k] == 0x7f)
+                sc->names[k] = '?';
         sc->names_len = strlen(sc->names);
     } else if (sc->names_len < sizeof sc->names - 5) {
         memcpy(sc->names + sc->names_len, ", ...", 6);
