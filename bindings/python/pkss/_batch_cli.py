@@ -449,12 +449,12 @@ def _run(args: argparse.Namespace) -> int:
             else CsvSink(args.out, args.resume)
     except OSError as e:
         raise IOFailure("%s: %s" % (args.out, e)) from None
-    todo = [t for t in tasks if t[0] not in sink.done]
-    progress = Progress(len(todo), len(tasks) - len(todo), args.progress)
+    pending = [t for t in tasks if t[0] not in sink.done]
+    progress = Progress(len(pending), len(tasks) - len(pending), args.progress)
     executor, closers = _executor(args)
     written: Set[str] = set(sink.done)
     interrupted = False
-    gen = batch.iter_register(todo, executor, **common)
+    gen = batch.iter_register(pending, executor, **common)
     try:
         for r in gen:
             row = row_of(r)
@@ -479,7 +479,7 @@ def _run(args: argparse.Namespace) -> int:
                 pass
     if interrupted:
         _say("interrupted: %d of %d pairs are in %s; run again with --resume for the rest"
-             % (progress.done, len(todo), args.out))
+             % (progress.done, len(pending), args.out))
         return 130
     if progress.mode != "none":
         _say("done: " + progress.line())
