@@ -50,6 +50,15 @@
 #define STAT_FAR 2.0
 #define STAT_OFF_PLANE 2.0
 #define STAT_SPARSE 0.1
+/* a uniform background of lambda points per volume is the points sparser
+ * than STAT_BG_KAPPA lambda: 12-NN densities of a Poisson set stay within
+ * 4x of lambda (all but 0.1 %), surfaces lie far above (cull.c) */
+#define STAT_BG_KAPPA 4.0
+/* a background's count reaches this share of lambda V: an outlier beside
+ * a surface counts that surface's points among its 12 neighbours */
+#define STAT_BG_FILL 0.8
+/* steps of that estimate (it falls monotonically; speed) */
+#define STAT_BG_STEPS 64
 /* the density box: from the 0.5 % to the 99.5 % quantile, each side at
  * least this share of the longest (flat scans) */
 #define STAT_QUANTILE 0.005

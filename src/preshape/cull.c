@@ -43,6 +43,9 @@
  * cloud less than 7 r12 across. (No scan in data/ is that flat: the
  * thinnest, KITTI, has a side ratio of 0.041.) A point whose neighbours
  * have s_i == 0 (a stack of duplicates) is not judged by the first clause.
+ * The sparse clause's N/V is raised to 4x the density of a uniform
+ * background when the cloud has one (background_fill; docs/tuning.md):
+ * at 20 % box outliers N/V is their own fill, and they pass 0.1 N/V.
  */
 #include "pkss_internal.h"
 
@@ -303,6 +306,37 @@ static double plane_distance(const double *xyz, const uint32_t *nb, size_t m,
     return fabs(h);
 }
 
+/* Density of a uniform background in the cloud (box outliers), 0 if none.
+ * Going down from lambda = N/V, each step takes the points sparser than
+ * STAT_BG_KAPPA lambda; their count / V is the next lambda. A background is
+ * a set whose count comes near what its own threshold implies (at least
+ * STAT_BG_FILL lambda V: outliers beside a surface read a little denser),
+ * and a minority: most points filling the box evenly are a solid shape.
+ * Points on a surface are far denser than their count / V and never come
+ * near. Unlike the fixed STAT_SPARSE N/V, this holds when outliers are a
+ * large part of N (then they raise N/V with their own number). */
+static double background_fill(const double *d2, size_t n, size_t k, double nv)
+{
+    double lambda = nv;
+    for (int step = 0; step < STAT_BG_STEPS && lambda > 0.0; ++step) {
+        /* rho_i < kappa lambda  <=>  r12^3 > 12 / (4/3 pi kappa lambda) */
+        double r3 = (double)k / (4.0 / 3.0 * PKSS_PI * STAT_BG_KAPPA * lambda);
+        size_t c = 0;
+        for (size_t i = 0; i < n; ++i) {
+            double r = sqrt(d2[k * i + k - 1]);
+            c += r * r * r > r3;
+        }
+        double next = (double)c * nv / (double)n;
+        int most = 2 * c >= n;
+        if (!most && next >= STAT_BG_FILL * lambda)
+            return lambda;
+        if (next >= lambda) /* most points, evenly: a solid */
+            return 0.0;
+        lambda = next;
+    }
+    return 0.0;
+}
+
 pkss_status pkss__cull_stat(const double *xyz, size_t n, unsigned char *keep,
                             pkss__knn_graph *graph)
 {
@@ -327,9 +361,9 @@ pkss_status pkss__cull_stat(const double *xyz, size_t n, unsigned char *keep,
     }
 
     double nv = background_density(xyz, n, dm);
-    /* rho_i < STAT_SPARSE * N/V  <=>  r12^3 > 12 / (4/3 pi STAT_SPARSE N/V) */
-    double r3_max = nv > 0.0 ? (double)k / (4.0 / 3.0 * PKSS_PI * STAT_SPARSE * nv)
-                             : HUGE_VAL;
+    double sparse = fmax(STAT_SPARSE * nv, STAT_BG_KAPPA * background_fill(d2, n, k, nv));
+    /* rho_i < sparse  <=>  r12^3 > 12 / (4/3 pi sparse) */
+    double r3_max = sparse > 0.0 ? (double)k / (4.0 / 3.0 * PKSS_PI * sparse) : HUGE_VAL;
 
     for (size_t i = 0; i < n; ++i) {
         double sum = 0.0;

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import ctypes
 import os
+import sys
 
 import numpy as np
 
@@ -23,7 +24,7 @@ ICP_MAX_DIST = 0.5    # ICP from identity: wide gate (half the RMS radius)
 CPD_POINTS = 1000     # probreg CPD works on <= this many points per cloud
 
 THREADS = int(os.environ.get("PKSS_BENCH_THREADS", "1"))
-PKSS_LIB = os.environ.get("PKSS_BENCH_LIB", "")  # dev fallback only
+PKSS_LIB = os.environ.get("PKSS_BENCH_LIB", "")  # development: a built libpkss
 
 
 def normalise(x):
@@ -50,12 +51,13 @@ def _load_pkss():
     global _pkss
     if _pkss is None:
         if PKSS_LIB:
-            import pkss_fallback
-            pkss_fallback.load(PKSS_LIB)
-            _pkss = pkss_fallback
-        else:
-            import pkss  # the real bindings
-            _pkss = pkss
+            # the bindings from this source tree (no bundled library there),
+            # so their loader takes $PKSS_LIBRARY
+            os.environ["PKSS_LIBRARY"] = PKSS_LIB
+            sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)),
+                                            "..", "..", "bindings", "python"))
+        import pkss
+        _pkss = pkss
     return _pkss
 
 

@@ -63,6 +63,11 @@ STRICT_COLUMNS = [
     ("outliers 5 %", _is("outliers")), ("combined", _is("combined")),
     ("real exact", _real(real_exact)), ("real >= 45 %", _real(real_scan_hi)),
     ("real < 45 %", _real(real_scan_lo)),
+    # the hard families (cases.HARD_CASES; not in the default run)
+    ("outliers 20 %", _is("outliers20")), ("cut 45 %", _is("cut45")),
+    ("partial 40/30", _is("partial")), ("noise G 0.8", _is("noise_g0.8")),
+    ("stripes", _is("stripes")), ("scale 1/10-10", _is("scale10")),
+    ("all at once", _is("allpert")),
 ]
 
 # (label, column filter, strict-success target)
@@ -75,6 +80,21 @@ TARGETS = [
     ("all combined", _is("combined"), 0.90),
     ("real scan pairs, overlap >= 45 %", _real(real_scan_hi), 0.95),
 ]
+
+# The hard families (issue #25): strict-success target; pkss at least as
+# successful as every peer and >= 2x faster than the best (most successful)
+# one, and <= 1.0 s median.
+HARD_TARGETS = [
+    ("20 % outliers", _is("outliers20"), 0.95),
+    ("half-space cut 45 %", _is("cut45"), 0.95),
+    ("partial-to-partial 40 / 30 %", _is("partial"), 0.95),
+    ("Gaussian noise r = 0.8", _is("noise_g0.8"), 0.95),
+    ("hard stripes", _is("stripes"), 0.95),
+    ("scale 1/10 .. 10", _is("scale10"), 0.99),
+    ("all at once", _is("allpert"), 0.80),
+]
+HARD_SPEEDUP = 2.0
+HARD_MAX_SECONDS = 1.0
 
 NUMERIC = ["time_s", "mse", "mse_n", "gt_cos", "rre_deg", "rte_pct",
            "scale_err_pct", "overlap", "missing"]
@@ -225,7 +245,9 @@ def per_object_table(rows, method="pkss"):
     objs = sorted({r["obj"] for r in rows if r["case"] != "real"})
     cases = [c for c in ["similarity", "density", "defective", "noise_g0.2", "noise_g0.4",
                          "noise_g0.6", "noise_u0.2", "noise_u0.4", "noise_u0.6",
-                         "outliers", "combined"] if any(r["case"] == c for r in rows)]
+                         "outliers", "combined", "outliers20", "cut45", "partial",
+                         "noise_g0.8", "stripes", "scale10", "allpert"]
+             if any(r["case"] == c for r in rows)]
     if not objs:
         return ""
     out = [f"### {LABELS[method]}: strict successes per object and case\n"]
@@ -293,6 +315,37 @@ def target_check(rows):
                    f"{'met' if ok_time else '**MISSED**'} | {'yes' if met else '**no**'} |")
     out.append("")
     return "\n".join(out), results
+
+
+def hard_target_check(rows):
+    """-> (markdown, list of (label, rate met, speed met)) for HARD_TARGETS."""
+    out = ["### Targets on the hard families (strict success; pkss >= every peer's "
+           f"success, median <= 1/{HARD_SPEEDUP:g} of the most successful peer's and "
+           f"<= {HARD_MAX_SECONDS:g} s)\n",
+           "| Family | target | pkss strict | rate | most successful peer (rate, median s) | "
+           "pkss median s | speed | both |", "|---|---|---|---|---|---|---|---|"]
+    peers = [m for m in method_order(rows) if m not in ("pkss", "identity")]
+    results = []
+    for label, pred, tgt in HARD_TARGETS:
+        st = stats(_sel(rows, "pkss", pred))
+        if st is None:
+            continue
+        ps = [(m, stats(_sel(rows, m, pred))) for m in peers]
+        ps = [(m, sp) for m, sp in ps if sp]
+        best = max(ps, key=lambda x: (x[1]["strict"], -x[1]["time_median"]), default=None)
+        ok_rate = st["strict"] >= tgt and all(st["strict"] >= sp["strict"] for _, sp in ps)
+        ok_time = st["time_median"] <= HARD_MAX_SECONDS and (
+            best is None or st["time_median"] * HARD_SPEEDUP <= best[1]["time_median"])
+        peer_s = ("none" if best is None else
+                  f"{LABELS[best[0]]}: {100 * best[1]['strict']:.0f}%, "
+                  f"{best[1]['time_median']:.2f}")
+        results.append((label, ok_rate, ok_time))
+        out.append(f"| {label} (n={st['n']}) | >= {100 * tgt:.0f}% | {100 * st['strict']:.1f}% | "
+                   f"{'met' if ok_rate else '**MISSED**'} | {peer_s} | {st['time_median']:.2f} | "
+                   f"{'met' if ok_time else '**MISSED**'} | "
+                   f"{'yes' if ok_rate and ok_time else '**no**'} |")
+    out.append("")
+    return ("\n".join(out) if results else ""), results
 
 
 def failure_list(rows, method="pkss", limit=200):
@@ -414,7 +467,8 @@ def write_report(csv_path, out_dir, header=""):
     rows = load_rows(csv_path)
     parts = [header, strict_table(rows)]
     tgt_md, results = target_check(rows)
-    parts += [tgt_md, rotation_only_table(rows), paper_tables(rows), per_object_table(rows),
+    hard_md, _ = hard_target_check(rows)
+    parts += [tgt_md, hard_md, rotation_only_table(rows), paper_tables(rows), per_object_table(rows),
               real_pair_table(rows),
               failure_list(rows)]
     md = "\n".join(p for p in parts if p)

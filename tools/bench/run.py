@@ -144,8 +144,8 @@ def main(argv=None):
     ap.add_argument("--report-only", action="store_true",
                     help="rebuild tables and plots from OUT/pairs.csv")
     ap.add_argument("--pkss-lib", default="",
-                    help="DEVELOPMENT ONLY: call this libpkss.so through an ABI-mode cffi "
-                         "stand-in instead of the installed pkss bindings")
+                    help="DEVELOPMENT ONLY: call this libpkss.so through the bindings of "
+                         "this source tree instead of the installed pkss package")
     args = ap.parse_args(argv)
     out = args.out or ("bench-out-quick" if args.quick else "bench-out")
     os.makedirs(out, exist_ok=True)
