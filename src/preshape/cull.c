@@ -315,17 +315,19 @@ static double plane_distance(const double *xyz, const uint32_t *nb, size_t m,
  * Points on a surface are far denser than their count / V and never come
  * near. Unlike the fixed STAT_SPARSE N/V, this holds when outliers are a
  * large part of N (then they raise N/V with their own number). */
-static double background_fill(const double *d2, size_t n, size_t k, double nv)
+static double background_fill(const double *d2, size_t n, size_t k, double nv,
+                              double *buf)
 {
+    for (size_t i = 0; i < n; ++i)
+        buf[i] = d2[k * i + k - 1]; /* r12^2, contiguous for the passes */
     double lambda = nv;
     for (int step = 0; step < STAT_BG_STEPS && lambda > 0.0; ++step) {
         /* rho_i < kappa lambda  <=>  r12^3 > 12 / (4/3 pi kappa lambda) */
-        double r3 = (double)k / (4.0 / 3.0 * PKSS_PI * STAT_BG_KAPPA * lambda);
+        double r = cbrt((double)k / (4.0 / 3.0 * PKSS_PI * STAT_BG_KAPPA * lambda));
+        double r2 = r * r;
         size_t c = 0;
-        for (size_t i = 0; i < n; ++i) {
-            double r = sqrt(d2[k * i + k - 1]);
-            c += r * r * r > r3;
-        }
+        for (size_t i = 0; i < n; ++i)
+            c += buf[i] > r2;
         double next = (double)c * nv / (double)n;
         int most = 2 * c >= n;
         if (!most && next >= STAT_BG_FILL * lambda)
@@ -361,7 +363,7 @@ pkss_status pkss__cull_stat(const double *xyz, size_t n, unsigned char *keep,
     }
 
     double nv = background_density(xyz, n, dm);
-    double sparse = fmax(STAT_SPARSE * nv, STAT_BG_KAPPA * background_fill(d2, n, k, nv));
+    double sparse = fmax(STAT_SPARSE * nv, STAT_BG_KAPPA * background_fill(d2, n, k, nv, dm));
     /* rho_i < sparse  <=>  r12^3 > 12 / (4/3 pi sparse) */
     double r3_max = sparse > 0.0 ? (double)k / (4.0 / 3.0 * PKSS_PI * sparse) : HUGE_VAL;
 
