@@ -57,6 +57,9 @@
 /* a background's count reaches this share of lambda V: an outlier beside
  * a surface counts that surface's points among its 12 neighbours */
 #define STAT_BG_FILL 0.8
+/* and the points it leaves are this much denser at their median (4x the
+ * cut): a noisy small object's surface is not its own background */
+#define STAT_BG_CONTRAST 16.0
 /* steps of that estimate (it falls monotonically; speed) */
 #define STAT_BG_STEPS 64
 /* the density box: from the 0.5 % to the 99.5 % quantile, each side at

@@ -311,10 +311,28 @@ static double plane_distance(const double *xyz, const uint32_t *nb, size_t m,
  * STAT_BG_KAPPA lambda; their count / V is the next lambda. A background is
  * a set whose count comes near what its own threshold implies (at least
  * STAT_BG_FILL lambda V: outliers beside a surface read a little denser),
- * and a minority: most points filling the box evenly are a solid shape.
+ * and a minority: most points filling the box evenly are a solid shape;
+ * and the rest must stand out of it (stands_out).
  * Points on a surface are far denser than their count / V and never come
  * near. Unlike the fixed STAT_SPARSE N/V, this holds when outliers are a
  * large part of N (then they raise N/V with their own number). */
+/* Whether the points kept by the cut r12^2 <= r2 (buf: every r12^2,
+ * reordered) are STAT_BG_CONTRAST times denser than lambda at their median:
+ * a shape standing out of its background, not a small compact or noisy
+ * cloud whose own surface reads barely denser than its box's mean fill. */
+static int stands_out(double *buf, size_t n, double r2, double lambda)
+{
+    size_t m = 0;
+    for (size_t i = 0; i < n; ++i)
+        if (buf[i] <= r2)
+            buf[m++] = buf[i];
+    if (m == 0)
+        return 0;
+    double r = sqrt(select_value(buf, m, m / 2));
+    double rho = (double)PKSS_KNN_K / (4.0 / 3.0 * PKSS_PI * r * r * r);
+    return rho >= STAT_BG_CONTRAST * lambda;
+}
+
 static double background_fill(const double *d2, size_t n, size_t k, double nv,
                               double *buf)
 {
@@ -331,7 +349,7 @@ static double background_fill(const double *d2, size_t n, size_t k, double nv,
         double next = (double)c * nv / (double)n;
         int most = 2 * c >= n;
         if (!most && next >= STAT_BG_FILL * lambda)
-            return lambda;
+            return stands_out(buf, n, r2, lambda) ? lambda : 0.0;
         if (next >= lambda) /* most points, evenly: a solid */
             return 0.0;
         lambda = next;
