@@ -451,7 +451,9 @@ typedef struct pkss_candidate {
     uint32_t rotation_index;    /* index into the rotation candidate set */
     uint32_t offset_index;      /* index into the offset set of its search */
     uint32_t search;            /* 0: the paper's offset grid; 1: the wide
-                                   second search */
+                                   second search; 2: a shift of the winner
+                                   (its rotation and scale, another
+                                   translation; added after 1.0) */
 } pkss_candidate;
 
 /** How far a candidate's refinement went (pkss_candidate.stage). */

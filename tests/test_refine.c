@@ -1,7 +1,8 @@
 /* SPDX-License-Identifier: MIT
  * test_refine.c -- the refinement (SPEC 6, icp.c) of parts of real scans:
- * the slide search that ends it, from a pose slid along a box, and a scale
- * stage held to a bar that must not stop while its scale still moves.
+ * the slide search that ends it, from a pose slid along a box, a scale
+ * stage held to a bar that must not stop while its scale still moves, and
+ * the shift search that moves a part of a corridor onto its own walls.
  */
 #include "support.h"
 
@@ -166,11 +167,105 @@ static void test_scale_stage_runs_while_scale_moves(void **state)
     part_teardown(&f);
 }
 
+/* A corridor of walls sampled every `step`: floor z = 0 and side walls
+ * y = 0, 2 over x in [x0, x1]; cross walls at each of xs[0..n_xs). */
+static size_t corridor(double x0, double x1, const double *xs, int n_xs,
+                       double step, double *out)
+{
+    size_t n = 0;
+#define PUT(a, b, c) (out ? (out[3 * n] = (a), out[3 * n + 1] = (b), out[3 * n + 2] = (c)) : 0, ++n)
+    for (double x = x0; x <= x1 + 1e-9; x += step) {
+        for (double y = 0.0; y <= 2.0 + 1e-9; y += step)
+            PUT(x, y, 0.0);
+        for (double z = step; z <= 1.5 + 1e-9; z += step) {
+            PUT(x, 0.0, z);
+            PUT(x, 2.0, z);
+        }
+    }
+    for (int k = 0; k < n_xs; ++k)
+        for (double y = step; y < 2.0 - 1e-9; y += step)
+            for (double z = step; z <= 1.5 + 1e-9; z += step)
+                PUT(xs[k], y, z);
+#undef PUT
+    return n;
+}
+
+/* A corridor 8 m long with cross walls at x = 0, 1.5 and 8; the source is
+ * its part beyond x = 1.5 (the cross walls at 1.5 and 8). Held 1.5 m too
+ * far down the corridor (within the search's quarter of the diagonal), the
+ * part's first wall lies on the wall at 0 and every plane term holds it
+ * there; the shift search offers the truth (within 1.5 cells) as a
+ * start, and at the truth it offers nothing. */
+static void test_shift_search_finds_the_right_walls(void **state)
+{
+    (void)state;
+    const double walls[] = {0.0, 1.5, 8.0}, step = 0.05;
+    size_t nt = corridor(0.0, 8.0, walls, 3, step, NULL);
+    size_t ns = corridor(1.5, 8.0, walls + 1, 2, step, NULL);
+    double *t = malloc(3 * nt * sizeof(double)), *s = malloc(3 * ns * sizeof(double));
+    corridor(0.0, 8.0, walls, 3, step, t);
+    corridor(1.5, 8.0, walls + 1, 2, step, s);
+    /* a scan's noise and a turn off the axes: no wall on a cell border */
+    pkss_test_rng rng = {pkss_test_seed("test_refine", 11)};
+    double R0[9];
+    pkss_test_random_rotation(&rng, R0);
+    for (int which = 0; which < 2; ++which) {
+        double *x = which ? s : t;
+        size_t n = which ? ns : nt;
+        for (size_t i = 0; i < n; ++i) {
+            double p[3];
+            for (int d = 0; d < 3; ++d)
+                p[d] = x[3 * i + d] + 0.2 * step * pkss_test_normal(&rng);
+            pkss__mat3_apply(R0, p, x + 3 * i);
+        }
+    }
+    pkss_context *ctx;
+    pkss_cloud *src, *tgt;
+    assert_int_equal(pkss_context_create(&ctx), PKSS_OK);
+    assert_int_equal(pkss_cloud_create(ctx, s, ns, &src), PKSS_OK);
+    assert_int_equal(pkss_cloud_create(ctx, t, nt, &tgt), PKSS_OK);
+    pkss__icp_view svc, tv;
+    pkss__icp_view_coarse(src, &svc);
+    pkss__icp_view_full(tgt, &tv);
+    pkss__pose truth, held;
+    identity_pose(src, tgt, &truth);
+    held = truth;
+    for (int d = 0; d < 3; ++d) /* along the corridor: R0's first column */
+        held.t[d] -= 1.5 * R0[3 * d] / tgt->sigma;
+    pkss__pose starts[PKSS_SHIFT_TRIALS];
+    size_t n = 0;
+    double t0 = pkss__now();
+    assert_int_equal(pkss__shift_starts(&svc, &tv, &held, PKSS_SHIFT_TRIALS, starts, &n),
+                     PKSS_OK);
+    double took = pkss__now() - t0;
+    const double cell = PKSS_SHIFT_CELL * tv.spacing;
+    double nearest = HUGE_VAL;
+    for (size_t k = 0; k < n; ++k)
+        nearest = fmin(nearest, distance3(starts[k].t, truth.t));
+    printf("  held 1.5 m down the corridor: %zu starts, the nearest %.2f cells from "
+           "the truth (%zu x %zu points, %.1f ms)\n", n, nearest / cell, svc.m, tv.m,
+           1e3 * took);
+    assert_true(n >= 1);
+    assert_true(nearest <= 1.5 * cell); /* 3 h: inside a full run's 6 h gate */
+    for (size_t k = 0; k < n; ++k) /* rotation and scale are the held pose's */
+        assert_memory_equal(starts[k].R, held.R, sizeof held.R);
+    assert_int_equal(pkss__shift_starts(&svc, &tv, &truth, PKSS_SHIFT_TRIALS, starts, &n),
+                     PKSS_OK);
+    printf("  at the truth: %zu starts\n", n);
+    assert_int_equal(n, 0);
+    pkss_cloud_destroy(src);
+    pkss_cloud_destroy(tgt);
+    pkss_context_destroy(ctx);
+    free(s);
+    free(t);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_slide_search_returns_box_part),
         cmocka_unit_test(test_scale_stage_runs_while_scale_moves),
+        cmocka_unit_test(test_shift_search_finds_the_right_walls),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

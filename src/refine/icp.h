@@ -124,6 +124,14 @@ pkss_status pkss__icp_scale_search(const pkss__icp_view *src,
 pkss_status pkss__icp_slide_search(const pkss__icp_view *src,
                                    const pkss__icp_view *tgt, double min_gain,
                                    pkss__icp_result *io);
+/* Translations of held (its rotation and scale kept) at which clearly more
+ * of the source's coarse points meet a template point than at held's (a
+ * vote per point and translation cell), at most max (<= PKSS_SHIFT_TRIALS),
+ * best first, each more than a cell from the others and from held
+ * (shift_search.c). */
+pkss_status pkss__shift_starts(const pkss__icp_view *src_coarse,
+                              const pkss__icp_view *tgt, const pkss__pose *held,
+                              size_t max, pkss__pose *starts, size_t *n_starts);
 /* Overlap score (coverage), RMS of the mutual pairs and the fit (fit may be
  * NULL) at pose. */
 pkss_status pkss__icp_overlap(const pkss__icp_view *src,

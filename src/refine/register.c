@@ -2,8 +2,9 @@
  * register.c -- PKSS-Align end to end (Algorithm 1; docs/design.md): both
  * clouds onto the pre-shape space (preshape/), the global search over
  * rotations x centre offsets (search/), the refinement stages (stages.c),
- * a wide second search and a slide search where the winner shows a part,
- * and the winner composed back into the caller's coordinates.
+ * a wide second search, a shift search and a slide search where the
+ * winner shows a part, and the winner composed back into the caller's
+ * coordinates.
  */
 #include "refine/assess.h"
 #include "refine/stages.h"
@@ -169,7 +170,7 @@ static pkss_status refine_stage(pkss_context *ctx, const pkss__search_setup *ss,
         rs->refined[c] = pkss__wants_full_run(rs, ir, order, i, &n_full,
                                               rs->v.tvc.spacing);
         if (rs->refined[c])
-            PKSS_FORWARD(pkss__stage_full_run(rs, c));
+            PKSS_FORWARD(pkss__stage_full_run(rs, c, 0));
         else if (!scored[order[i]])
             rest[n_rest++] = (int)c;
     }
@@ -234,6 +235,22 @@ static pkss_status wide_search_stage(pkss_context *ctx, const pkss_cloud *src,
     return PKSS_OK;
 }
 
+/* The shift search on the winner and the winner again, timed. */
+static pkss_status shift_stage(pkss_context *ctx, pkss__refinement *rs, int *w)
+{
+    if (!ctx->params.refine)
+        return PKSS_OK;
+    double t0 = pkss__now();
+    size_t added = 0;
+    pkss_status st = pkss__stage_shift(rs, *w, &added);
+    if (st != PKSS_OK)
+        return fail_step(ctx, st);
+    if (added)
+        *w = pkss__pick_winner(rs);
+    rs->refine_seconds += pkss__now() - t0;
+    return PKSS_OK;
+}
+
 /* The slide search on the winner, timed. */
 static pkss_status slide_stage(pkss_context *ctx, pkss__refinement *rs, int w)
 {
@@ -249,8 +266,8 @@ static pkss_status slide_stage(pkss_context *ctx, pkss__refinement *rs, int w)
 
 /* The candidates and the winner in caller coordinates (pkss_result). */
 static void report(const pkss_cloud *src, const pkss_cloud *tgt,
-                   const pkss__refinement *rs, size_t n_first, int best,
-                   outcome *out)
+                   const pkss__refinement *rs, size_t n_first, size_t n_searched,
+                   int best, outcome *out)
 {
     pkss_result *res = &out->res;
     for (size_t c = 0; c < rs->n; ++c) {
@@ -268,7 +285,7 @@ static void report(const pkss_cloud *src, const pkss_cloud *tgt,
         cand->stage = rs->stage[c];
         cand->rotation_index = pk->rotation;
         cand->offset_index = pk->offset;
-        cand->search = c < n_first ? 0u : 1u;
+        cand->search = c < n_first ? 0u : (c < n_searched ? 1u : 2u);
     }
     compose(src, tgt, &rs->ir[best].pose, res->T_target_source, &res->scale,
             res->rotation, res->translation);
@@ -314,11 +331,14 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
     if ((st = wide_search_stage(ctx, src, tgt, ss, rs, &best,
                                 &out->res.n_evaluations)) != PKSS_OK)
         goto done;
+    const size_t n_searched = rs->n;
+    if ((st = shift_stage(ctx, rs, &best)) != PKSS_OK)
+        goto done;
     if ((st = slide_stage(ctx, rs, best)) != PKSS_OK)
         goto done;
     out->res.n_rotations = (uint32_t)ss->rot.n_rotations;
     out->res.n_offsets = (uint32_t)ss->n_offsets;
-    report(src, tgt, rs, n_first, best, out);
+    report(src, tgt, rs, n_first, n_searched, best, out);
     /* How far to trust it: alternatives, symmetry, confidence (assess.c). */
     pkss__assess_input ai = {&rs->v.sv, &rs->v.tv, &rs->v.svc, &rs->v.tvc, tgt->sigma,
                              tgt->centroid, rs->ir, out->cand, rs->n, best,

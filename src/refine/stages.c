@@ -249,12 +249,15 @@ static pkss_status plan_scale(const pkss__views *v, pkss__icp_result *io,
     return PKSS_OK;
 }
 
-pkss_status pkss__stage_full_run(pkss__refinement *rs, size_t c)
+pkss_status pkss__stage_full_run(pkss__refinement *rs, size_t c, int scale_known)
 {
     pkss__icp_result *r = &rs->ir[c];
     pkss__icp_result scaled = *r;
     pkss__icp_schedule sched = pkss__schedule_full;
-    PKSS_FORWARD(plan_scale(&rs->v, &scaled, &sched.free_scale));
+    if (scale_known)
+        sched.free_scale = pkss__part_mode(r->cover[0], r->cover[1], sched.free_scale);
+    else
+        PKSS_FORWARD(plan_scale(&rs->v, &scaled, &sched.free_scale));
     /* judged against the leader on all points in the rigid stage (the coarse
      * level may stop mid-way), and in the scale stage against this search's */
     pkss__icp_stops stops = {PKSS_FULL_REFINE_RATIO * rs->lead_overlap, rs->lead_here,
@@ -300,10 +303,42 @@ int pkss__pick_winner(const pkss__refinement *rs)
     return best;
 }
 
-pkss_status pkss__stage_slide(pkss__refinement *rs, int w)
+/* Whether the refined winner w shows a part: the translation searches'
+ * condition (one cloud covers the other wholly, or neither: a part can
+ * then be held on the wrong walls, or slide). */
+static int shows_part(const pkss__refinement *rs, int w)
 {
     const pkss__icp_result *r = &rs->ir[w];
-    if (!rs->refined[w] || !(fmin(r->cover[0], r->cover[1]) < PKSS_PART_COVERED))
+    return rs->refined[w] && fmin(r->cover[0], r->cover[1]) < PKSS_PART_COVERED;
+}
+
+pkss_status pkss__stage_shift(pkss__refinement *rs, int w, size_t *added)
+{
+    *added = 0;
+    if (!shows_part(rs, w))
+        return PKSS_OK;
+    pkss__pose starts[PKSS_SHIFT_TRIALS];
+    size_t room = PKSS_MAX_CANDIDATES - rs->n, n = 0;
+    PKSS_FORWARD(pkss__shift_starts(&rs->v.svc, &rs->v.tv, &rs->ir[w].pose,
+                                    room < PKSS_SHIFT_TRIALS ? room : PKSS_SHIFT_TRIALS,
+                                    starts, &n));
+    for (size_t k = 0; k < n; ++k) {
+        size_t c = rs->n++;
+        rs->picks[c] = rs->picks[w];
+        rs->ir[c] = rs->ir[w]; /* its coverages choose the scale pairs */
+        rs->ir[c].pose = starts[k];
+        rs->st[c] = PKSS_OK;
+        rs->refined[c] = 1; /* cleared by the run if it stops short */
+        rs->stage[c] = PKSS_STAGE_SEARCH;
+        PKSS_FORWARD(pkss__stage_full_run(rs, c, 1));
+    }
+    *added = n;
+    return PKSS_OK;
+}
+
+pkss_status pkss__stage_slide(pkss__refinement *rs, int w)
+{
+    if (!shows_part(rs, w))
         return PKSS_OK;
     return pkss__icp_slide_search(&rs->v.sv, &rs->v.tv, PKSS_OVERLAP_TIE, &rs->ir[w]);
 }

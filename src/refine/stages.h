@@ -3,7 +3,8 @@
  * over one state. Per search: every candidate's coarse level
  * (stage_coarse_levels), full runs for the chosen few (wants_full_run,
  * stage_full_run), the rest scored (stage_score_rest). After the searches:
- * the winner (pick_winner), then the slide search (stage_slide).
+ * the winner (pick_winner), the shift search (stage_shift) and the winner
+ * again, then the slide search (stage_slide).
  */
 #ifndef PKSS_REFINE_STAGES_H
 #define PKSS_REFINE_STAGES_H
@@ -57,15 +58,20 @@ int pkss__wants_full_run(const pkss__refinement *rs, const pkss__icp_result *ir,
  * neither is a part wholly on the other). */
 int pkss__part_mode(double fs, double ft, int otherwise);
 /* Candidate c's full run (scale search where the coverages show a part,
+ * unless scale_known: a shift of a refined pose keeps its searched scale;
  * then rigid, scale and plane stages), judged against the leader; updates
  * ir[c], stage[c], refined[c] and the leader. */
-pkss_status pkss__stage_full_run(pkss__refinement *rs, size_t c);
+pkss_status pkss__stage_full_run(pkss__refinement *rs, size_t c, int scale_known);
 /* Overlap scores on all points, at their poses, of candidates list[0..n). */
 pkss_status pkss__stage_score_rest(pkss__refinement *rs, const int *list,
                                    size_t n);
 /* The winner: the fully refined candidate with the highest fit, fits within
  * PKSS_OVERLAP_TIE broken by the lower RMS; candidate 0 when none is. */
 int pkss__pick_winner(const pkss__refinement *rs);
+/* The shift search on winner w when it does not cover both clouds: up to
+ * PKSS_SHIFT_TRIALS translations of it that land more points (shift_search.c)
+ * become candidates (*added of them, appended) and get full runs. */
+pkss_status pkss__stage_shift(pkss__refinement *rs, int w, size_t *added);
 /* The slide search on winner w when it does not cover both clouds. */
 pkss_status pkss__stage_slide(pkss__refinement *rs, int w);
 

@@ -503,7 +503,8 @@ class Candidate(_Value):
     #: ``"refined"`` (full refinement to its end; only these can win)
     stage: str
     #: 0: the paper's offset grid; 1: the wide second search (run when the
-    #: first winner covers neither cloud)
+    #: first winner covers neither cloud); 2: a shift of the winner (its
+    #: rotation and scale at another translation, docs/design.md §5)
     search: int
 
     def apply(self, points: ArrayLike) -> np.ndarray:
