@@ -306,16 +306,6 @@ static double plane_distance(const double *xyz, const uint32_t *nb, size_t m,
     return fabs(h);
 }
 
-/* Density of a uniform background in the cloud (box outliers), 0 if none.
- * Going down from lambda = N/V, each step takes the points sparser than
- * STAT_BG_KAPPA lambda; their count / V is the next lambda. A background is
- * a set whose count comes near what its own threshold implies (at least
- * STAT_BG_FILL lambda V: outliers beside a surface read a little denser),
- * and a minority: most points filling the box evenly are a solid shape;
- * and the rest must stand out of it (stands_out).
- * Points on a surface are far denser than their count / V and never come
- * near. Unlike the fixed STAT_SPARSE N/V, this holds when outliers are a
- * large part of N (then they raise N/V with their own number). */
 /* Whether the points kept by the cut r12^2 <= r2 (buf: every r12^2,
  * reordered) are STAT_BG_CONTRAST times denser than lambda at their median:
  * a shape standing out of its background, not a small compact or noisy
@@ -333,6 +323,11 @@ static int stands_out(double *buf, size_t n, double r2, double lambda)
     return rho >= STAT_BG_CONTRAST * lambda;
 }
 
+/* Density lambda of a uniform background (box outliers), 0 if none: going
+ * down from N/V, the points sparser than STAT_BG_KAPPA lambda give the next
+ * lambda = count / V, until their count nears lambda V (STAT_BG_FILL) --
+ * evenly spread as their own density says. Surfaces are far denser than
+ * count / V; a majority is the shape; the rest must stand out of it. */
 static double background_fill(const double *d2, size_t n, size_t k, double nv,
                               double *buf)
 {

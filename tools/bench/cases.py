@@ -326,7 +326,7 @@ HARD_CASES = ["outliers20", "cut45", "partial", "noise_g0.8", "stripes",
 HOLDOUT_OBJECTS = {
     "car6": "PCL car6, a car cut out of an outdoor LiDAR street scan (10031 pts)",
     "room": "libpointmatcher icp_tutorial cloud_0, an indoor laser scan, 5 cm voxel",
-    "goicp_bunny": "Go-ICP model_bunny: another bunny scan set, 30k pts",
+    "goicp_bunny": "Go-ICP model_bunny: another bunny scan set (35947 pts)",
 }
 
 
