@@ -136,13 +136,13 @@ def _ransac(sn, tn, seed):
     return np.asarray(r.transformation), {"fitness": float(r.fitness)}
 
 
-def _icp(sn, tn, init, max_dist, iters, voxel):
+def _icp(sn, tn, init, max_dist, iters, voxel, scaling=False):
     o3d = _load_o3d()
     reg = o3d.pipelines.registration
     ps = _pcd(sn).voxel_down_sample(voxel)
     pt = _pcd(tn).voxel_down_sample(voxel)
     r = reg.registration_icp(ps, pt, max_dist, init,
-                             reg.TransformationEstimationPointToPoint(False),
+                             reg.TransformationEstimationPointToPoint(scaling),
                              reg.ICPConvergenceCriteria(max_iteration=iters))
     return np.asarray(r.transformation), {"fitness": float(r.fitness)}
 
@@ -166,6 +166,17 @@ def run_o3d_ransac_icp(src, tgt, seed):
     tn, ct, st = normalise(tgt)
     T0, _ = _ransac(sn, tn, seed)
     Tn, info = _icp(sn, tn, T0, VOXEL, 60, ICP_VOXEL)
+    return compose(Tn, cs, ss, ct, st), info
+
+
+def run_o3d_ransac_sicp(src, tgt, seed):
+    """FPFH+RANSAC, then ICP that also fits the scale: the RMS normalisation
+    is wrong where one cloud has outliers or lacks a part, and this ICP can
+    correct what it leaves."""
+    sn, cs, ss = normalise(src)
+    tn, ct, st = normalise(tgt)
+    T0, _ = _ransac(sn, tn, seed)
+    Tn, info = _icp(sn, tn, T0, VOXEL, 60, ICP_VOXEL, scaling=True)
     return compose(Tn, cs, ss, ct, st), info
 
 
@@ -225,6 +236,7 @@ METHODS = {
     "o3d_icp": run_o3d_icp,
     "o3d_fpfh_ransac": run_o3d_ransac,
     "o3d_fpfh_ransac_icp": run_o3d_ransac_icp,
+    "o3d_fpfh_ransac_sicp": run_o3d_ransac_sicp,
     "o3d_fgr": run_o3d_fgr,
     "small_gicp": run_small_gicp,
     "probreg_cpd": run_cpd,
@@ -236,6 +248,7 @@ LABELS = {
     "o3d_icp": "ICP (Open3D, from identity)",
     "o3d_fpfh_ransac": "FPFH+RANSAC (Open3D)",
     "o3d_fpfh_ransac_icp": "FPFH+RANSAC+ICP (Open3D)",
+    "o3d_fpfh_ransac_sicp": "FPFH+RANSAC+scaled ICP (Open3D)",
     "o3d_fgr": "FGR (Open3D)",
     "small_gicp": "GICP (small_gicp, from identity)",
     "probreg_cpd": "CPD rigid+scale (probreg)",

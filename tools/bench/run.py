@@ -32,6 +32,7 @@ FIELDS = ["case_id", "case", "obj", "index", "seed", "method", "status", "time_s
           "sym"]
 
 ALL_METHODS = ["pkss", "identity", "o3d_icp", "o3d_fpfh_ransac", "o3d_fpfh_ransac_icp",
+               "o3d_fpfh_ransac_sicp",
                "o3d_fgr", "small_gicp", "probreg_cpd"]
 
 
