@@ -322,3 +322,14 @@ pkss_candidate pkss_test_candidate(const pkss_context *ctx, size_t index)
         memset(c.T_target_source, 0, sizeof c.T_target_source);
     return c;
 }
+
+void pkss_test_need_device(void)
+{
+    unsigned count = 0;
+    pkss_status st = pkss_device_count(&count);
+    if (st != PKSS_OK || count == 0) {
+        print_message("SKIP: no OpenCL device (%s): %s\n", pkss_status_name(st),
+                      pkss_no_device_reason());
+        skip();
+    }
+}

@@ -1,7 +1,8 @@
 /* SPDX-License-Identifier: MIT
  * support.h -- helpers shared by the cmocka test programs: the shared data
- * folder, file loading, a seeded RNG (seed printed; PKSS_TEST_SEED
- * overrides), random similarity transforms and pose error metrics. */
+ * folder, file loading, the OpenCL device check, a seeded RNG (seed
+ * printed; PKSS_TEST_SEED overrides), random similarity transforms and
+ * pose error metrics. */
 #ifndef PKSS_TEST_SUPPORT_H
 #define PKSS_TEST_SUPPORT_H
 
@@ -17,6 +18,10 @@
  * the file is absent. The returned string is static (overwritten by the
  * next call). */
 const char *pkss_test_data_path(const char *relative);
+
+/* Skips the calling test, with the reason, when no OpenCL device is
+ * listed. */
+void pkss_test_need_device(void);
 
 /* Loads a data file (any format pkss_io reads) into a malloc'd n x 3 array;
  * calls cmocka skip() with a clear message when the file is absent, and

@@ -26,21 +26,10 @@ static const char *PROGRAM = "test_cl_cache";
 
 static char g_dir[256];
 
-static void need_device(void)
-{
-    unsigned count = 0;
-    pkss_status st = pkss_device_count(&count);
-    if (st != PKSS_OK || count == 0) {
-        print_message("SKIP: no OpenCL device (%s): %s\n", pkss_status_name(st),
-                      pkss_no_device_reason());
-        skip();
-    }
-}
-
 /* A fresh, empty cache folder for the calling test. */
 static void fresh_dir(void)
 {
-    need_device();
+    pkss_test_need_device();
     snprintf(g_dir, sizeof g_dir, "/tmp/pkss-cache-test-XXXXXX");
     assert_non_null(mkdtemp(g_dir));
     assert_int_equal(setenv("PKSS_CACHE_DIR", g_dir, 1), 0);

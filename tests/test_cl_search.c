@@ -32,21 +32,9 @@ static const char *PROGRAM = "test_cl_search";
 
 static uint64_t g_seed;
 
-/* Skips the calling test when no device is listed. */
-static void need_device(void)
-{
-    unsigned count = 0;
-    pkss_status st = pkss_device_count(&count);
-    if (st != PKSS_OK || count == 0) {
-        print_message("SKIP: no OpenCL device (%s): %s\n", pkss_status_name(st),
-                      pkss_no_device_reason());
-        skip();
-    }
-}
-
 static pkss_context *opencl_context(void)
 {
-    need_device();
+    pkss_test_need_device();
     pkss_context *ctx = NULL;
     assert_int_equal(pkss_context_create(&ctx), PKSS_OK);
     assert_int_equal(pkss_context_set_int(ctx, PKSS_PARAM_BACKEND, PKSS_BACKEND_OPENCL),
@@ -173,7 +161,7 @@ static const char *const REAL_SCANS[] = {
 static void test_device_listing(void **state)
 {
     (void)state;
-    need_device();
+    pkss_test_need_device();
     unsigned count = 0;
     assert_int_equal(pkss_device_count(&count), PKSS_OK);
     assert_true(count >= 1);
@@ -216,7 +204,7 @@ static pkss_status prepare_with(const char *request, pkss_context **out)
 static void test_select_by_index_and_name(void **state)
 {
     (void)state;
-    need_device();
+    pkss_test_need_device();
     unsetenv("PKSS_DEVICE");
     unsigned count = 0;
     assert_int_equal(pkss_device_count(&count), PKSS_OK);
@@ -304,7 +292,7 @@ static void test_select_by_index_and_name(void **state)
 static void test_nonexistent_device(void **state)
 {
     (void)state;
-    need_device();
+    pkss_test_need_device();
     unsetenv("PKSS_DEVICE");
     pkss_context *ctx;
     assert_int_equal(prepare_with("no-such-device-xyz", &ctx), PKSS_ERR_NO_DEVICE);
@@ -338,7 +326,7 @@ static void test_nonexistent_device(void **state)
 static void test_error_reporting(void **state)
 {
     (void)state;
-    need_device();
+    pkss_test_need_device();
     pkss_context *ctx = NULL;
     assert_int_equal(pkss_context_create(&ctx), PKSS_OK);
     /* release without a device is a no-op */
@@ -467,7 +455,7 @@ static void test_scores_other_steps(void **state)
 static void test_scores_one_lane_variant(void **state)
 {
     (void)state;
-    need_device();
+    pkss_test_need_device();
     setenv("PKSS_CL_VECTOR_WIDTH", "1", 1);
     pkss_context *ctx = opencl_context();
     unsetenv("PKSS_CL_VECTOR_WIDTH");

@@ -306,6 +306,12 @@ static double plane_distance(const double *xyz, const uint32_t *nb, size_t m,
     return fabs(h);
 }
 
+/* The 12-NN density rho = k / (4/3 pi r^3) <-> the cube of that radius. */
+static double r3_of_density(size_t k, double rho)
+{
+    return (double)k / (4.0 / 3.0 * PKSS_PI * rho);
+}
+
 /* Whether the points kept by the cut r12^2 <= r2 (buf: every r12^2,
  * reordered) are STAT_BG_CONTRAST times denser than lambda at their median:
  * a shape standing out of its background, not a small compact or noisy
@@ -319,8 +325,7 @@ static int stands_out(double *buf, size_t n, double r2, double lambda)
     if (m == 0)
         return 0;
     double r = sqrt(select_value(buf, m, m / 2));
-    double rho = (double)PKSS_KNN_K / (4.0 / 3.0 * PKSS_PI * r * r * r);
-    return rho >= STAT_BG_CONTRAST * lambda;
+    return r * r * r <= r3_of_density(PKSS_KNN_K, STAT_BG_CONTRAST * lambda);
 }
 
 /* Density lambda of a uniform background (box outliers), 0 if none: going
@@ -335,8 +340,8 @@ static double background_fill(const double *d2, size_t n, size_t k, double nv,
         buf[i] = d2[k * i + k - 1]; /* r12^2, contiguous for the passes */
     double lambda = nv;
     for (int step = 0; step < STAT_BG_STEPS && lambda > 0.0; ++step) {
-        /* rho_i < kappa lambda  <=>  r12^3 > 12 / (4/3 pi kappa lambda) */
-        double r = cbrt((double)k / (4.0 / 3.0 * PKSS_PI * STAT_BG_KAPPA * lambda));
+        /* rho_i < kappa lambda  <=>  r12^3 > r3_of_density(kappa lambda) */
+        double r = cbrt(r3_of_density(k, STAT_BG_KAPPA * lambda));
         double r2 = r * r;
         size_t c = 0;
         for (size_t i = 0; i < n; ++i)
@@ -377,8 +382,7 @@ pkss_status pkss__cull_stat(const double *xyz, size_t n, unsigned char *keep,
 
     double nv = background_density(xyz, n, dm);
     double sparse = fmax(STAT_SPARSE * nv, STAT_BG_KAPPA * background_fill(d2, n, k, nv, dm));
-    /* rho_i < sparse  <=>  r12^3 > 12 / (4/3 pi sparse) */
-    double r3_max = sparse > 0.0 ? (double)k / (4.0 / 3.0 * PKSS_PI * sparse) : HUGE_VAL;
+    double r3_max = sparse > 0.0 ? r3_of_density(k, sparse) : HUGE_VAL; /* rho_i < sparse */
 
     for (size_t i = 0; i < n; ++i) {
         double sum = 0.0;

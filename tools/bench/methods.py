@@ -161,23 +161,19 @@ def run_o3d_ransac(src, tgt, seed):
     return compose(Tn, cs, ss, ct, st), info
 
 
-def run_o3d_ransac_icp(src, tgt, seed):
+def run_o3d_ransac_icp(src, tgt, seed, scaling=False):
+    """FPFH+RANSAC, then ICP; with scaling the ICP also fits the scale, which
+    the RMS normalisation gets wrong where a cloud has outliers or lacks a
+    part."""
     sn, cs, ss = normalise(src)
     tn, ct, st = normalise(tgt)
     T0, _ = _ransac(sn, tn, seed)
-    Tn, info = _icp(sn, tn, T0, VOXEL, 60, ICP_VOXEL)
+    Tn, info = _icp(sn, tn, T0, VOXEL, 60, ICP_VOXEL, scaling)
     return compose(Tn, cs, ss, ct, st), info
 
 
 def run_o3d_ransac_sicp(src, tgt, seed):
-    """FPFH+RANSAC, then ICP that also fits the scale: the RMS normalisation
-    is wrong where one cloud has outliers or lacks a part, and this ICP can
-    correct what it leaves."""
-    sn, cs, ss = normalise(src)
-    tn, ct, st = normalise(tgt)
-    T0, _ = _ransac(sn, tn, seed)
-    Tn, info = _icp(sn, tn, T0, VOXEL, 60, ICP_VOXEL, scaling=True)
-    return compose(Tn, cs, ss, ct, st), info
+    return run_o3d_ransac_icp(src, tgt, seed, scaling=True)
 
 
 def run_o3d_fgr(src, tgt, seed):
