@@ -39,7 +39,10 @@
  * uses one extra thread, created at its first use and joined before the
  * call returns, for the two clouds' pre-processing, candidates two at a
  * time and the two directions of a correspondence pass; plus the OpenCL
- * device's own threads.
+ * device's own threads. The first pkss_register() of a process that needs
+ * a device also starts the OpenCL driver (loading it is process-wide) on a
+ * short-lived thread while the clouds are pre-processed, joined before the
+ * device is opened.
  *
  * "SPEC N" is section N of docs/spec.md, which pins down what the paper
  * leaves open; "Eq. N" is the paper's equation N.

@@ -387,6 +387,17 @@ size_t pkss__select_top_k(const float *scores, const float *gc,
 /* evaluate_cl.c; all return PKSS_ERR_UNSUPPORTED when built without it. */
 pkss_status pkss__cl_prepare(pkss_context *ctx);
 void pkss__cl_release(pkss_context *ctx);
+/* The driver's process-wide start-up (device.c): the ICD loader, the
+ * platforms and their devices -- loading PoCL and LLVM is most of a first
+ * prepare. pkss_register runs it on a short-lived thread while it builds
+ * the clouds, when ctx needs a device, none is prepared and no listing has
+ * been done in the process yet; end joins that thread (no-op otherwise). */
+typedef struct pkss__cl_warmup {
+    pthread_t thread;
+    int started;
+} pkss__cl_warmup;
+void pkss__cl_warmup_begin(const pkss_context *ctx, pkss__cl_warmup *w);
+void pkss__cl_warmup_end(pkss__cl_warmup *w);
 pkss_status pkss__search_cl(pkss_context *ctx, const pkss__search_input *in,
                             float *scores, float *g_contour, float *g_feature);
 

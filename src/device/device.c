@@ -86,6 +86,7 @@ typedef struct device_list {
 /* Serialises the enumeration: some ICD loaders initialise lazily and not
  * every one of them does so under a lock. */
 static pthread_mutex_t list_lock = PTHREAD_MUTEX_INITIALIZER;
+static int listed_once; /* under list_lock: the driver has started up */
 
 /* Every device of every platform, platform then device order. */
 static void list_devices(device_list *out)
@@ -101,6 +102,7 @@ static void list_devices(device_list *out)
     cl_uint np = 0;
     cl_int err = clGetPlatformIDs(16, plats, &np);
     out->platform_err = err;
+    listed_once = 1;
     if (err == CL_SUCCESS) {
         if (np > 16)
             np = 16;
@@ -121,6 +123,34 @@ static void list_devices(device_list *out)
         }
     }
     pthread_mutex_unlock(&list_lock);
+}
+
+/* ------------------------------------------------------------ warm-up */
+static void *warmup_main(void *arg)
+{
+    (void)arg;
+    device_list list;
+    list_devices(&list);
+    return NULL;
+}
+
+void pkss__cl_warmup_begin(const pkss_context *ctx, pkss__cl_warmup *w)
+{
+    w->started = 0;
+    if (ctx->prepared || ctx->params.backend == PKSS_BACKEND_REFERENCE)
+        return;
+    pthread_mutex_lock(&list_lock);
+    int done = listed_once;
+    pthread_mutex_unlock(&list_lock);
+    if (!done)
+        w->started = pthread_create(&w->thread, NULL, warmup_main, NULL) == 0;
+}
+
+void pkss__cl_warmup_end(pkss__cl_warmup *w)
+{
+    if (w->started)
+        pthread_join(w->thread, NULL);
+    w->started = 0;
 }
 
 static void device_string(cl_device_id d, cl_device_info what, char *buf,

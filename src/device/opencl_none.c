@@ -18,6 +18,14 @@ pkss_status pkss__cl_prepare(pkss_context *ctx)
 
 void pkss__cl_release(pkss_context *ctx) { (void)ctx; }
 
+void pkss__cl_warmup_begin(const pkss_context *ctx, pkss__cl_warmup *w)
+{
+    (void)ctx;
+    w->started = 0;
+}
+
+void pkss__cl_warmup_end(pkss__cl_warmup *w) { (void)w; }
+
 pkss_status pkss__search_cl(pkss_context *ctx, const pkss__search_input *in,
                             float *scores, float *g_contour, float *g_feature)
 {

@@ -355,17 +355,39 @@ done:
     return st;
 }
 
-/* The device, if not prepared yet (PKSS_PROGRESS_DEVICE), timed. */
+/* Entering PKSS_PROGRESS_DEVICE, when the device is not prepared yet. */
+static pkss_status device_checkpoint(pkss_context *ctx)
+{
+    if (ctx->prepared)
+        return PKSS_OK;
+    return pkss__checkpoint(ctx->run, PKSS_PROGRESS_DEVICE, 0, 1) == PKSS_OK
+               ? PKSS_OK : pkss__cancel_fail(ctx);
+}
+
+/* The device, if not prepared yet, timed (after device_checkpoint). */
 static pkss_status prepare_device(pkss_context *ctx, outcome *out)
 {
     if (ctx->prepared)
         return PKSS_OK;
-    PKSS_FORWARD(pkss__checkpoint(ctx->run, PKSS_PROGRESS_DEVICE, 0, 1) == PKSS_OK
-                     ? PKSS_OK : pkss__cancel_fail(ctx));
     double t0 = pkss__now();
     pkss_status st = pkss_context_prepare(ctx);
     out->res.prepare_seconds += pkss__now() - t0;
     return st;
+}
+
+/* The device once the clouds are built (their build overlapped the
+ * driver's start-up). A device failure is reported before an input
+ * failure, as when the device was opened first. */
+static pkss_status prepare_after_build(pkss_context *ctx, outcome *out,
+                                       pkss_status built)
+{
+    char detail[PKSS_DETAIL_SIZE];
+    memcpy(detail, ctx->detail, sizeof detail);
+    pkss_status st = prepare_device(ctx, out);
+    if (st != PKSS_OK || built == PKSS_OK)
+        return st;
+    memcpy(ctx->detail, detail, sizeof detail);
+    return built;
 }
 
 /* Runs the search and refinement into a library-sized result; the caller
@@ -374,7 +396,9 @@ static pkss_status register_into(pkss_context *ctx, const pkss_cloud *source,
                                  const pkss_cloud *target, outcome *out)
 {
     double t0 = pkss__now();
-    pkss_status st = prepare_device(ctx, out);
+    pkss_status st = device_checkpoint(ctx);
+    if (st == PKSS_OK)
+        st = prepare_device(ctx, out);
     if (st != PKSS_OK)
         return st;
     pkss_result *res = &out->res;
@@ -435,11 +459,21 @@ pkss_status pkss_register(pkss_context *ctx, const double *source,
     PKSS_RETURN_IF(!out, ctx, PKSS_ERR_OUT_OF_MEMORY, "out of memory");
     pkss__run run_state;
     pkss__run_begin(ctx, &run_state);
-    pkss_status st = prepare_device(ctx, out);
+    /* the driver starts up while the clouds are built (pkss__cl_warmup) */
+    pkss_status st = device_checkpoint(ctx);
+    pkss__cl_warmup warm = {.started = 0};
+    if (st == PKSS_OK)
+        pkss__cl_warmup_begin(ctx, &warm);
     double tb = pkss__now();
     if (st == PKSS_OK)
         st = pkss__cloud_build_pair(ctx, source, n_source, target, n_target, &src, &tgt);
-    double build_wall = pkss__now() - tb;
+    double tw = pkss__now(), build_wall = tw - tb;
+    if (warm.started) {
+        pkss__cl_warmup_end(&warm);
+        out->res.prepare_seconds += pkss__now() - tw;
+    }
+    if (st != PKSS_ERR_CANCELLED)
+        st = prepare_after_build(ctx, out, st);
     if (st == PKSS_OK)
         st = register_into(ctx, src, tgt, out);
     if (st == PKSS_OK) {
