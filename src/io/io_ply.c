@@ -421,13 +421,53 @@ truncated:
                    (unsigned long long)r);
 }
 
+/* One coordinate; doubles in the host's byte order are copied as they are
+ * (the common case, and the one that matters for huge files). */
+static inline double get_coordinate(const unsigned char *p, io_type t, int be)
+{
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+    if (t == IO_T_F64 && !be) {
+        double d;
+        memcpy(&d, p, sizeof d);
+        return d;
+    }
+#endif
+    return io_get_value(p, t, be);
+}
+
+/* Rows of scalars only, all present: x, y and z sit at fixed offsets. */
+static void read_fixed_vertices(const ply_element *el, int be,
+                                const unsigned char *row, double *out)
+{
+    const int axis[3] = {el->ix, el->iy, el->iz};
+    size_t off[3] = {0, 0, 0}, stride = 0;
+    io_type type[3] = {IO_T_F64, IO_T_F64, IO_T_F64};
+    for (size_t i = 0; i < el->n_props; i++) {
+        for (int d = 0; d < 3; d++)
+            if ((int)i == axis[d]) {
+                off[d] = stride;
+                type[d] = el->props[i].type;
+            }
+        stride += io_type_size(el->props[i].type);
+    }
+    for (uint64_t r = 0; r < el->count; r++, row += stride)
+        for (int d = 0; d < 3; d++)
+            out[3 * r + d] = get_coordinate(row + off[d], type[d], be);
+}
+
 static pkss_status read_binary_vertices(io_ctx *ctx,
                                            const ply_element *el, int be,
                                            size_t pos, double *out)
 {
     const size_t size = ctx->size;
-    uint64_t r;
+    uint64_t r, need;
     size_t i;
+    if (row_is_fixed(el) &&
+        io_mul_u64(el->count, row_min_bytes(el, 0), &need) == 0 &&
+        need <= size - pos) {
+        read_fixed_vertices(el, be, ctx->data + pos, out);
+        return PKSS_OK;
+    }
     for (r = 0; r < el->count; r++) {
         for (i = 0; i < el->n_props; i++) {
             const ply_prop *p = &el->props[i];
