@@ -39,6 +39,9 @@
 #define THIN_LOAD 0.7
 /* a count within target / THIN_CLOSE of target ends the search (5 %) */
 #define THIN_CLOSE 20
+/* the search starts as if the cloud were a surface of this share of its
+ * box's face area (a sphere in its cube: pi/6; a flat scan: one face) */
+#define THIN_AREA 0.5
 /* points whose slots are prefetched before any is inserted: the set is
  * far larger than the caches */
 #define THIN_BATCH 16

@@ -24,3 +24,13 @@ if(TARGET pkss_static AND EXISTS "${CMAKE_CURRENT_LIST_DIR}/confidence/conf_dump
   set_target_properties(conf_dump PROPERTIES
     C_STANDARD 11 C_STANDARD_REQUIRED ON C_EXTENSIONS OFF)
 endif()
+
+# --- bench_thin (voxel thinning of huge clouds, SPEC 2.1; a developer tool) ---
+if(TARGET pkss_static)
+  add_executable(bench_thin "${CMAKE_CURRENT_LIST_DIR}/bench_thin.c")
+  target_link_libraries(bench_thin PRIVATE pkss_static m)
+  target_include_directories(bench_thin PRIVATE "${PROJECT_SOURCE_DIR}/src"
+                             "${PROJECT_SOURCE_DIR}/kernels")
+  set_target_properties(bench_thin PROPERTIES
+    C_STANDARD 11 C_STANDARD_REQUIRED ON C_EXTENSIONS OFF)
+endif()

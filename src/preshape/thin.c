@@ -9,7 +9,7 @@
  *
  * h is found by a short secant search in log-log space on the number of
  * occupied voxels (counted with a hash set of packed voxel keys, which
- * keeps each voxel's pick in the same pass): typically 3-4 passes over
+ * keeps each voxel's pick in the same pass): typically 2-3 passes over
  * the points. It stops within 5 % of target when the step function
  * allows; otherwise it uses the evaluated h whose count was closest.
  *
@@ -150,9 +150,10 @@ static int grid_alloc(thin_grid *g, size_t keys)
 
 static size_t absdiff(size_t a, size_t b) { return a > b ? a - b : b - a; }
 
-/* Bounding box corner (g->lo), seeded origin shift; returns the extent. */
+/* Bounding box corner (g->lo), seeded origin shift; returns the extent
+ * and, in *area, the area of the box's faces. */
 static double grid_frame(thin_grid *g, const double *xyz, size_t n,
-                         uint64_t seed)
+                         uint64_t seed, double *area)
 {
     double hi[3];
     for (int d = 0; d < 3; ++d)
@@ -163,10 +164,13 @@ static double grid_frame(thin_grid *g, const double *xyz, size_t n,
             g->lo[d] = v < g->lo[d] ? v : g->lo[d];
             hi[d] = v > hi[d] ? v : hi[d];
         }
-    double extent = 0.0;
-    for (int d = 0; d < 3; ++d)
-        if (hi[d] - g->lo[d] > extent)
-            extent = hi[d] - g->lo[d];
+    double extent = 0.0, e[3];
+    for (int d = 0; d < 3; ++d) {
+        e[d] = hi[d] - g->lo[d];
+        if (e[d] > extent)
+            extent = e[d];
+    }
+    *area = 2.0 * (e[0] * e[1] + e[1] * e[2] + e[2] * e[0]);
     uint64_t rs = seed;
     for (int d = 0; d < 3; ++d)
         g->off[d] = (double)(splitmix64(&rs) >> 11) * 0x1.0p-53;
@@ -203,13 +207,15 @@ static double next_h(h_search *s, double h, size_t c, size_t target)
 /* The edge whose count comes closest to target (within 1/THIN_CLOSE when
  * the step function allows), searched in log-log space. */
 static double search_h(thin_grid *g, const double *xyz, size_t n,
-                       size_t target, double extent)
+                       size_t target, double extent, double area)
 {
     if (!(extent > 0.0))
         return 1.0; /* all points identical: one voxel */
     double h_min = extent / THIN_CELLS;
-    /* Start as if the cloud were a surface filling its box face. */
-    double h = extent / sqrt((double)target), best_h = h;
+    /* Start as if the cloud were a surface of THIN_AREA times its box's
+     * face area (a closed surface inside its box; a flat scan's two faces
+     * count one, since it lies in one of them). */
+    double h = sqrt(THIN_AREA * area / (double)target), best_h = h;
     h_search s = {0.0, 0.0, HUGE_VAL, 0};
     size_t best_err = SIZE_MAX;
     for (int pass = 0; pass < THIN_MAX_PASSES; ++pass) {
@@ -294,12 +300,12 @@ pkss_status pkss__thin_voxel(const double *xyz, size_t n, size_t target,
 
     thin_grid g;
     memset(&g, 0, sizeof g);
-    double extent = grid_frame(&g, xyz, n, seed);
+    double area = 0.0, extent = grid_frame(&g, xyz, n, seed, &area);
     double track = THIN_TRACK * (double)target;
     pkss_status st = PKSS_ERR_OUT_OF_MEMORY;
     if (!grid_alloc(&g, track < (double)n ? (size_t)track : n))
         goto cleanup;
-    double h = search_h(&g, xyz, n, target, extent);
+    double h = search_h(&g, xyz, n, target, extent, area);
     /* The last pass is usually the one chosen: its picks are in place. */
     if (!(g.h == h && g.complete) && occupied(&g, xyz, n, h) > g.limit) {
         /* no pass came near target (a grid at its finest): hold them all */
