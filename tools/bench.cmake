@@ -34,3 +34,14 @@ if(TARGET pkss_static)
   set_target_properties(bench_thin PROPERTIES
     C_STANDARD 11 C_STANDARD_REQUIRED ON C_EXTENSIONS OFF)
 endif()
+
+# --- pose_probe (scores a known pose with pkss's measures and refines from it:
+# is a miss the search's or the objective's? a developer tool) ---
+if(TARGET pkss_static)
+  add_executable(pose_probe "${CMAKE_CURRENT_LIST_DIR}/pose_probe.c")
+  target_link_libraries(pose_probe PRIVATE pkss_static m)
+  target_include_directories(pose_probe PRIVATE "${PROJECT_SOURCE_DIR}/src"
+                             "${PROJECT_SOURCE_DIR}/kernels")
+  set_target_properties(pose_probe PROPERTIES
+    C_STANDARD 11 C_STANDARD_REQUIRED ON C_EXTENSIONS OFF)
+endif()
