@@ -2,7 +2,8 @@
  * test_cl_cache.c -- the OpenCL program cache (src/device/program_cache.c):
  * a first context writes the entry and a second one builds from it; a
  * corrupt, truncated, stale (other kernel source hash) or driver-rejected
- * entry is detected, rebuilt from source and replaced; an unusable folder
+ * entry is detected, rebuilt from source and replaced; another build's
+ * entry is kept beside this one's, and the folder stays bounded; an unusable folder
  * still prepares and registers, with the reason in the detail; and a
  * registration through a cached program gives the bit-identical pose of
  * one built from source. Each test uses its own folder (PKSS_CACHE_DIR).
@@ -15,6 +16,8 @@
 #include "pkss_internal.h"
 
 #include <dirent.h>
+#include <fcntl.h>
+#include <sys/stat.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -178,6 +181,109 @@ static void test_stale_entry_rebuilt(void **state)
     remove_dir();
 }
 
+/* Names the folder's cl-*.bin entries: how many, and whether `name` is
+ * one of them. */
+static int count_entries(const char *name, int *has)
+{
+    DIR *dir = opendir(g_dir);
+    assert_non_null(dir);
+    int n = 0;
+    *has = 0;
+    struct dirent *e;
+    while ((e = readdir(dir)) != NULL)
+        if (!strncmp(e->d_name, "cl-", 3) && strstr(e->d_name, ".bin")) {
+            ++n;
+            *has |= name && !strcmp(e->d_name, name);
+        }
+    closedir(dir);
+    return n;
+}
+
+/* Another kernel source's entry (another pkss build) is left alone: the
+ * two builds keep an entry each instead of rebuilding every other call. */
+static void test_other_source_entry_kept(void **state)
+{
+    (void)state;
+    fresh_dir();
+    prepare_once(PKSS__CACHE_STORED, NULL);
+    char mine[512], other[512];
+    snprintf(mine, sizeof mine, "%s", entry_path());
+    const char *base = strrchr(mine, '/') + 1;
+    assert_int_equal(strlen(base), strlen("cl-0123456789abcdef-0123456789abcdef.bin"));
+    snprintf(other, sizeof other, "%s/%.20s0123456789abcdef.bin", g_dir, base);
+    assert_string_not_equal(other, mine);
+    FILE *in = fopen(mine, "rb"), *out = fopen(other, "wb");
+    assert_true(in && out);
+    int ch;
+    while ((ch = fgetc(in)) != EOF)
+        fputc(ch, out);
+    fclose(in);
+    fclose(out);
+    uint64_t other_hash = 0x0123456789abcdefull;
+    patch(other, (long)offsetof(pkss__cache_header, source_hash), &other_hash,
+          sizeof other_hash);
+    prepare_once(PKSS__CACHE_HIT, NULL); /* its own entry, untouched */
+    int has = 0;
+    assert_int_equal(count_entries(strrchr(other, '/') + 1, &has), 2);
+    assert_true(has);
+    remove_dir();
+}
+
+/* Two kernel sources (two pkss builds) on one device and driver are two
+ * entries: alternating builds would otherwise rebuild on every call. */
+static void test_sources_have_their_own_entries(void **state)
+{
+    (void)state;
+    fresh_dir();
+    assert_true(pkss__cl_load());
+    cl_platform_id p;
+    cl_device_id d;
+    cl_uint np = 0;
+    assert_int_equal(clGetPlatformIDs(1, &p, &np), CL_SUCCESS);
+    assert_int_equal(clGetDeviceIDs(p, CL_DEVICE_TYPE_ALL, 1, &d, NULL), CL_SUCCESS);
+    pkss__cache_key a, b, a2;
+    pkss__cache_key_init(&a, p, d, "-DPKSS_TEST", "kernel one", 10);
+    pkss__cache_key_init(&b, p, d, "-DPKSS_TEST", "kernel two", 10);
+    pkss__cache_key_init(&a2, p, d, "-DPKSS_TEST", "kernel one", 10);
+    assert_string_not_equal(a.path, b.path);
+    assert_string_equal(a.path, a2.path);
+    remove_dir();
+}
+
+/* The folder keeps the 16 most recently written entries. */
+static void test_folder_bounded(void **state)
+{
+    (void)state;
+    fresh_dir();
+    char path[512];
+    for (int i = 0; i < 20; ++i) {
+        snprintf(path, sizeof path, "%s/cl-%016x-%016x.bin", g_dir, 0xabc, i);
+        FILE *f = fopen(path, "wb");
+        assert_non_null(f);
+        fputs("an entry of another build", f);
+        fclose(f);
+        struct timespec t[2] = {{1000000 + i, 0}, {1000000 + i, 0}}; /* oldest: i = 0 */
+        assert_int_equal(utimensat(AT_FDCWD, path, t, 0), 0);
+    }
+    snprintf(path, sizeof path, "%s/notes.txt", g_dir); /* not an entry: kept */
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    fclose(f);
+    prepare_once(PKSS__CACHE_STORED, NULL);
+    int has = 0;
+    assert_int_equal(count_entries(NULL, &has), 16);
+    char name[64];
+    snprintf(name, sizeof name, "cl-%016x-%016x.bin", 0xabc, 19);
+    count_entries(name, &has);
+    assert_true(has); /* the newest of the others stay ... */
+    snprintf(name, sizeof name, "cl-%016x-%016x.bin", 0xabc, 4);
+    count_entries(name, &has);
+    assert_false(has); /* ... the oldest went */
+    assert_int_equal(access(path, F_OK), 0);
+    prepare_once(PKSS__CACHE_HIT, NULL); /* and this build's own is there */
+    remove_dir();
+}
+
 /* A well-formed entry (right header and checksum) whose binary the driver
  * cannot load: detected at clBuildProgram, rebuilt from source. */
 static void test_rejected_binary_rebuilt(void **state)
@@ -266,6 +372,9 @@ int main(void)
         cmocka_unit_test(test_warm_cache_used),
         cmocka_unit_test(test_corrupt_entry_rebuilt),
         cmocka_unit_test(test_stale_entry_rebuilt),
+        cmocka_unit_test(test_other_source_entry_kept),
+        cmocka_unit_test(test_sources_have_their_own_entries),
+        cmocka_unit_test(test_folder_bounded),
         cmocka_unit_test(test_rejected_binary_rebuilt),
         cmocka_unit_test(test_unwritable_folder_registers),
         cmocka_unit_test(test_cached_program_same_result),

@@ -2,9 +2,10 @@
  * program_cache.c -- built OpenCL programs kept on disk, so that a new
  * context (every CLI call) loads the device binary instead of compiling
  * the kernels again (docs/design.md "Program cache"). An entry is named by
- * a hash of the device identity, driver version and build options; its
- * header repeats that hash and adds the library version and the kernel
- * source hash, and the binary is checksummed. Anything that does not match
+ * a hash of the device identity, driver version and build options and by
+ * the kernel source hash; its header repeats both and adds the library
+ * version, and the binary is checksummed. The folder keeps the CACHE_KEEP
+ * most recently written entries. Anything that does not match
  * is rebuilt from source and replaced through a temp file and rename(), so
  * concurrent processes never read half an entry. The cache never fails a
  * call: an unusable folder only means building from source.
@@ -14,12 +15,18 @@
 
 #ifdef PKSS_WITH_OPENCL
 
+#include <dirent.h>
 #include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
+
+/* Entries kept in the folder: every device and driver of a machine, and a
+ * few pkss builds each, at ~150-200 KB an entry */
+#define CACHE_KEEP 16
 
 /* Larger entries are not believed (a PoCL binary of our kernels is about
  * 150 KB; GPU drivers' are of the same order). */
@@ -121,7 +128,7 @@ void pkss__cache_key_init(pkss__cache_key *key, cl_platform_id platform,
     key->key_hash = pkss__fnv1a(h, options, strlen(options) + 1);
     key->source_hash = pkss__fnv1a(PKSS__FNV_INIT, source, source_len);
 
-    char dir[sizeof key->path - 32];
+    char dir[sizeof key->path - 64]; /* room for the entry's name */
     if (!pkss__cache_dir(dir, sizeof dir)) {
         set_note(key, PKSS__CACHE_UNWRITABLE,
                  "no folder (set PKSS_CACHE_DIR, XDG_CACHE_HOME or HOME); "
@@ -136,8 +143,11 @@ void pkss__cache_key_init(pkss__cache_key *key, cl_platform_id platform,
         set_note(key, PKSS__CACHE_UNWRITABLE, what, NULL);
         return;
     }
-    snprintf(key->path, sizeof key->path, "%s/cl-%016llx.bin", dir,
-             (unsigned long long)key->key_hash);
+    /* two builds with other kernels (two installed versions, an A/B
+     * benchmark) keep one entry each instead of replacing each other's */
+    snprintf(key->path, sizeof key->path, "%s/cl-%016llx-%016llx.bin", dir,
+             (unsigned long long)key->key_hash,
+             (unsigned long long)key->source_hash);
 }
 
 /* Reads and checks the entry into a new buffer; NULL with the reason in
@@ -240,6 +250,54 @@ int pkss__cache_write(const char *path, const pkss__cache_header *h,
     return err;
 }
 
+/* An entry's name: cl-<16 hex>-<16 hex>.bin, or cl-<16 hex>.bin as
+ * written before the source hash was in it (temp files and others differ). */
+static int is_entry_name(const char *name)
+{
+    size_t n = strlen(name);
+    int now = n == 3 + 16 + 1 + 16 + 4 && name[19] == '-';
+    return (now || n == 3 + 16 + 4) && !strncmp(name, "cl-", 3) &&
+           !strcmp(name + n - 4, ".bin");
+}
+
+/* Keeps the folder of `path` to CACHE_KEEP entries: the least recently
+ * written others go (each kernel source, driver or device has its own). A
+ * file that another process removed first is no error. */
+static void prune(const char *path)
+{
+    char dir[sizeof ((pkss__cache_key *)0)->path];
+    snprintf(dir, sizeof dir, "%s", path);
+    char *slash = strrchr(dir, '/');
+    if (!slash)
+        return;
+    *slash = '\0';
+    for (;;) {
+        DIR *d = opendir(dir);
+        if (!d)
+            return;
+        int count = 0;
+        time_t oldest_time = 0;
+        char oldest[sizeof dir + 64] = "";
+        struct dirent *e;
+        while ((e = readdir(d)) != NULL) {
+            char full[sizeof dir + 64];
+            struct stat sb;
+            if (!is_entry_name(e->d_name) ||
+                snprintf(full, sizeof full, "%s/%s", dir, e->d_name) >= (int)sizeof full ||
+                stat(full, &sb) != 0)
+                continue;
+            ++count;
+            if (strcmp(full, path) != 0 && (!oldest[0] || sb.st_mtime < oldest_time)) {
+                oldest_time = sb.st_mtime;
+                memcpy(oldest, full, sizeof oldest);
+            }
+        }
+        closedir(d);
+        if (count <= CACHE_KEEP || !oldest[0] || (unlink(oldest) != 0 && errno != ENOENT))
+            return;
+    }
+}
+
 void pkss__cache_store(pkss__cache_key *key, cl_program program)
 {
     if (!key->path[0])
@@ -272,9 +330,11 @@ void pkss__cache_store(pkss__cache_key *key, cl_program program)
         snprintf(what, sizeof what, "cannot write '%.300s' (%s); built from "
                  "source", key->path, strerror(err));
         set_note(key, PKSS__CACHE_UNWRITABLE, what, NULL);
-    } else if (key->outcome == PKSS__CACHE_NONE) {
-        set_note(key, PKSS__CACHE_STORED, "built from source, entry written",
-                 NULL);
+    } else {
+        if (key->outcome == PKSS__CACHE_NONE)
+            set_note(key, PKSS__CACHE_STORED, "built from source, entry written",
+                     NULL);
+        prune(key->path);
     }
 }
 
