@@ -1,10 +1,10 @@
 /* SPDX-License-Identifier: MIT
  * program_cache.h -- the on-disk cache of built OpenCL programs
  * (program_cache.c; docs/design.md "Program cache"). One entry per device,
- * driver, build options and kernel source; the entry's header names the library version
- * and the kernel source hash it was built from and checksums the binary,
- * so that a stale or damaged entry is rebuilt, never used. Private to the
- * OpenCL modules and their tests.
+ * driver, build options and kernel source; the entry's header names the
+ * library version and the kernel source hash it was built from and
+ * checksums the binary, so that a stale or damaged entry is rebuilt, never
+ * used. Private to the OpenCL modules and their tests.
  */
 #ifndef PKSS_PROGRAM_CACHE_H
 #define PKSS_PROGRAM_CACHE_H
