@@ -10,7 +10,7 @@
  * with clearly more votes than the held translation become candidates,
  * refined as every other (stages.c: pkss__stage_shift).
  */
-#include "refine/icp.h"
+#include "refine/icp_parts.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -134,11 +134,8 @@ pkss_status pkss__shift_starts(const pkss__icp_view *src_coarse,
     pkss_status st = PKSS_ERR_OUT_OF_MEMORY;
     if (!y || !acc || !stamp)
         goto done;
-    for (size_t i = 0; i < m; ++i) {
-        pkss__mat3_apply(held->R, src_coarse->pts + 3 * i, y + 3 * i);
-        for (int d = 0; d < 3; ++d)
-            y[3 * i + d] = held->s * y[3 * i + d] + held->t[d];
-    }
+    for (size_t i = 0; i < m; ++i)
+        pkss__pose_apply(held, src_coarse->pts + 3 * i, y + 3 * i);
     if ((st = cast_votes(y, m, tgt, cell, r, acc, stamp)) != PKSS_OK)
         goto done;
     peak best[PKSS_SHIFT_TRIALS];
