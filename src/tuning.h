@@ -231,8 +231,12 @@
 /* relative damping of the point-to-plane normal equations: a free
  * direction (a plane's sliding) stays where it is */
 #define ICP_PLANE_DAMPING 1e-6
-/* relative slack keeping a warm start's old partner inside its bound */
-#define ICP_WARM_SLACK 1e-9
+/* relative slack of a remembered nearest neighbour's test, far above the
+ * rounding of the distances it compares */
+#define ICP_MEMO_SLACK 1e-9
+/* a fresh nearest-neighbour query remembers this many neighbours less one;
+ * the last one's distance is the margin (docs/tuning.md) */
+#define ICP_MEMO_K 4
 
 /* ---- ICP schedules (refine/schedules.c; fields of pkss__icp_schedule) - */
 /* coarse level on every candidate: the search is ~10-20 degrees accurate,

@@ -121,7 +121,7 @@ int main(int argc, char **argv)
         show("found", &sv, &tv, &F, &G);
     }
     pkss__icp_work w;
-    if (!pkss__work_alloc(&w, sv.m, tv.m))
+    if (!pkss__work_alloc(&w, sv.m, tv.m, 1))
         return 1;
     pkss__pose P = G;
     double ov0;

@@ -1,44 +1,77 @@
 /* SPDX-License-Identifier: MIT
  * correspond.c -- correspondences of the ICP engine: nearest partners both
- * ways (warm-started kd-tree queries), the pair lists each stage uses, and
- * the coverage overlap that judges poses (SPEC 6, with the deviation in
- * docs/design.md).
+ * ways (kd-tree queries, remembered while provably unchanged), the pair
+ * lists each stage uses, and the coverage overlap that judges poses (SPEC 6,
+ * with the deviation in docs/design.md).
  */
 #include "refine/icp_parts.h"
 
 #include <math.h>
 #include <string.h>
 
-/* Search radius^2 for a warm-started query: the previous iteration's partner
- * (prev, UINT32_MAX if none) at its current distance bounds the search, so
- * the tree prunes almost everything; the result is exactly that of a cold
- * search within the gate (the true nearest is at most that far). */
-static double warm_bound(const double *q, const double *pts, uint32_t prev,
-                         double g2)
+/* The nearest point of tree (points pts) to q within sqrt(g2), exactly as
+ * pkss__kdtree_nearest answers it (UINT32_MAX and *d2 = g2 if none). A
+ * query remembers the ICP_MEMO_K - 1 nearest points of q0 and the distance
+ * lb of the next: after q moves by |q - q0|, every point not remembered is
+ * at least lb - |q - q0| away (triangle inequality), so the nearest
+ * remembered one (ties to the lowest index) is still the answer when it is
+ * closer than that, and none is when that is beyond the gate. */
+static uint32_t nearest_memo(const pkss__kdtree *tree, const double *pts,
+                             const double *q, double g2, pkss__nn_memo *m,
+                             size_t k, double *d2)
 {
-    if (prev == UINT32_MAX)
-        return g2;
-    /* a relative slack far above rounding keeps the old partner inside */
-    double d2 = pkss__dist2(q, pts + 3 * (size_t)prev) * (1.0 + ICP_WARM_SLACK) + 1e-300;
-    return d2 < g2 ? d2 : g2;
+    enum { KEEP = ICP_MEMO_K - 1 };
+    if (!m->lb) /* a single query: nothing to remember */
+        return pkss__kdtree_nearest(tree, q, g2, d2);
+    double *q0 = m->q0 + 3 * k;
+    uint32_t *near = m->near + KEEP * k;
+    if (m->lb[k] >= 0.0) {
+        double moved = sqrt(pkss__dist2(q, q0));
+        double others = m->lb[k] - moved;
+        uint32_t best = UINT32_MAX;
+        double bd = INFINITY;
+        for (int i = 0; i < KEEP && near[i] != UINT32_MAX; ++i) {
+            double dj = pkss__dist2(q, pts + 3 * (size_t)near[i]);
+            if (dj < bd || (dj == bd && near[i] < best)) {
+                bd = dj;
+                best = near[i];
+            }
+        }
+        /* lb is infinite when the memo holds every point of the tree */
+        double slack = ICP_MEMO_SLACK * (moved + (isfinite(m->lb[k]) ? m->lb[k] : sqrt(bd)));
+        if (sqrt(bd) + slack < others || (!(bd < g2) && others - slack >= sqrt(g2))) {
+            *d2 = bd < g2 ? bd : g2;
+            return bd < g2 ? best : UINT32_MAX;
+        }
+    }
+    uint32_t idx[ICP_MEMO_K];
+    double dd[ICP_MEMO_K];
+    size_t got = pkss__kdtree_knn(tree, q, ICP_MEMO_K, SIZE_MAX, idx, dd);
+    memcpy(q0, q, 3 * sizeof(double));
+    for (size_t i = 0; i < KEEP; ++i)
+        near[i] = i < got ? idx[i] : UINT32_MAX;
+    m->lb[k] = got == ICP_MEMO_K ? sqrt(dd[KEEP]) : INFINITY;
+    int hit = got > 0 && dd[0] < g2;
+    *d2 = hit ? dd[0] : g2;
+    return hit ? idx[0] : UINT32_MAX;
 }
 
 typedef struct bwd_job {
     const pkss__icp_view *src, *tgt;
     const pkss__pose *T;
     double g2s;
-    uint32_t *bwd;
-    double *bwd_d2;
+    pkss__icp_work *w;
 } bwd_job;
 
 static void backward(void *arg)
 {
     const bwd_job *j = arg;
+    pkss__icp_work *w = j->w;
     for (size_t k = 0; k < j->tgt->m; ++k) {
         double x[3];
         pkss__pose_inverse_apply(j->T, j->tgt->pts + 3 * k, x);
-        double b = warm_bound(x, j->src->pts, j->bwd[k], j->g2s);
-        j->bwd[k] = pkss__kdtree_nearest(j->src->tree, x, b, &j->bwd_d2[k]);
+        w->bwd[k] = nearest_memo(j->src->tree, j->src->pts, x, j->g2s, &w->bwd_memo,
+                                 k, &w->bwd_d2[k]);
     }
 }
 
@@ -52,7 +85,7 @@ void pkss__correspond(const pkss__icp_view *src, const pkss__icp_view *tgt,
                       const pkss__pose *T, double gate, pkss__icp_work *w)
 {
     double g2 = gate * gate;
-    bwd_job job = {src, tgt, T, g2 / (T->s * T->s), w->bwd, w->bwd_d2};
+    bwd_job job = {src, tgt, T, g2 / (T->s * T->s), w};
     pkss__helper *helper = src->run ? &src->run->helper : NULL;
     unsigned long ticket = 0;
     if (src->m + tgt->m >= 2 * ICP_THREAD_MIN)
@@ -60,13 +93,32 @@ void pkss__correspond(const pkss__icp_view *src, const pkss__icp_view *tgt,
     for (size_t i = 0; i < src->m; ++i) {
         double y[3];
         pkss__pose_apply(T, src->pts + 3 * i, y);
-        double b = warm_bound(y, tgt->pts, w->fwd[i], g2);
-        w->fwd[i] = pkss__kdtree_nearest(tgt->tree, y, b, &w->fwd_d2[i]);
+        w->fwd[i] = nearest_memo(tgt->tree, tgt->pts, y, g2, &w->fwd_memo, i,
+                                 &w->fwd_d2[i]);
     }
     if (ticket)
         pkss__helper_wait(helper, ticket, 0.0);
     else
         backward(&job);
+}
+
+static void memo_free(pkss__nn_memo *m)
+{
+    pkss__free(m->q0);
+    pkss__free(m->lb);
+    pkss__free(m->near);
+}
+
+static int memo_alloc(pkss__nn_memo *m, size_t n)
+{
+    m->q0 = pkss__malloc(3 * n * sizeof(double));
+    m->lb = pkss__malloc(n * sizeof(double));
+    m->near = pkss__malloc((ICP_MEMO_K - 1) * n * sizeof(uint32_t));
+    if (!m->q0 || !m->lb || !m->near)
+        return 0;
+    for (size_t k = 0; k < n; ++k)
+        m->lb[k] = -1.0; /* nothing proved yet */
+    return 1;
 }
 
 void pkss__work_free(pkss__icp_work *w)
@@ -77,9 +129,11 @@ void pkss__work_free(pkss__icp_work *w)
     pkss__free(w->pj);
     pkss__free(w->fwd_d2);
     pkss__free(w->bwd_d2);
+    memo_free(&w->fwd_memo);
+    memo_free(&w->bwd_memo);
 }
 
-int pkss__work_alloc(pkss__icp_work *w, size_t ns, size_t nt)
+int pkss__work_alloc(pkss__icp_work *w, size_t ns, size_t nt, int remember)
 {
     memset(w, 0, sizeof *w);
     w->fwd = pkss__malloc(ns * sizeof(uint32_t));
@@ -88,11 +142,12 @@ int pkss__work_alloc(pkss__icp_work *w, size_t ns, size_t nt)
     w->bwd_d2 = pkss__malloc(nt * sizeof(double));
     w->pi = pkss__malloc((ns + nt) * sizeof(uint32_t));
     w->pj = pkss__malloc((ns + nt) * sizeof(uint32_t));
-    if (!w->fwd || !w->fwd_d2 || !w->bwd || !w->bwd_d2 || !w->pi || !w->pj) {
+    int memos = !remember || (memo_alloc(&w->fwd_memo, ns) & memo_alloc(&w->bwd_memo, nt));
+    if (!w->fwd || !w->fwd_d2 || !w->bwd || !w->bwd_d2 || !w->pi || !w->pj || !memos) {
         pkss__work_free(w);
         return 0;
     }
-    memset(w->fwd, 0xff, ns * sizeof(uint32_t)); /* no warm start yet */
+    memset(w->fwd, 0xff, ns * sizeof(uint32_t)); /* no answers yet */
     memset(w->bwd, 0xff, nt * sizeof(uint32_t));
     return 1;
 }
@@ -227,7 +282,7 @@ pkss_status pkss__icp_overlap(const pkss__icp_view *src,
     *rms = 0.0;
     if (fit)
         *fit = 0.0;
-    if (!pkss__work_alloc(&w, src->m, tgt->m))
+    if (!pkss__work_alloc(&w, src->m, tgt->m, 0))
         return PKSS_ERR_OUT_OF_MEMORY;
     pkss__overlap_with(src, tgt, pose, &w, overlap, rms, NULL, fit);
     pkss__work_free(&w);

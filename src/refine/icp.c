@@ -271,7 +271,7 @@ pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
         r.stops.basins = NULL; /* basins are the minima of full runs */
     out->duplicate_of = -1;
     out->abandoned = 0;
-    if (!pkss__work_alloc(&r.w, src->m, tgt->m))
+    if (!pkss__work_alloc(&r.w, src->m, tgt->m, 1))
         return PKSS_ERR_OUT_OF_MEMORY;
     r.h = tgt->spacing;
     r.gate = sched->gate_start * r.h;

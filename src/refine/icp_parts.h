@@ -27,14 +27,25 @@ double pkss__solve_plane(const pkss__icp_view *src, const pkss__icp_view *tgt,
                          pkss__pose *T);
 
 /* ---- correspondences (correspond.c) ---- */
+/* What one direction's last full query proved, per query point: where it
+ * stood (q0), its nearest point within the query's reach (near, or
+ * UINT32_MAX) and a lower bound on the distance to every other point (lb;
+ * < 0 before the first query). correspond.c reuses it while it decides. */
+typedef struct pkss__nn_memo {
+    double *q0, *lb;
+    uint32_t *near;
+} pkss__nn_memo;
+
 /* Nearest partners both ways and the pair lists built from them. fwd/bwd
- * hold the previous answers (warm starts) or UINT32_MAX. */
+ * hold the answers within the last gate or UINT32_MAX. */
 typedef struct pkss__icp_work {
     uint32_t *fwd, *bwd, *pi, *pj;
     double *fwd_d2, *bwd_d2;
+    pkss__nn_memo fwd_memo, bwd_memo;
 } pkss__icp_work;
 
-int pkss__work_alloc(pkss__icp_work *w, size_t ns, size_t nt);
+/* remember: the queries will be repeated from nearby poses (the memos) */
+int pkss__work_alloc(pkss__icp_work *w, size_t ns, size_t nt, int remember);
 void pkss__work_free(pkss__icp_work *w);
 /* Nearest template point of every source point and nearest source point of
  * every template point, both within gate (template units). */

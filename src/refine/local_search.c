@@ -48,7 +48,7 @@ pkss_status pkss__icp_scale_search(const pkss__icp_view *src,
                                    pkss__icp_result *io)
 {
     pkss__icp_work w;
-    if (!pkss__work_alloc(&w, src->m, tgt->m))
+    if (!pkss__work_alloc(&w, src->m, tgt->m, 1))
         return PKSS_ERR_OUT_OF_MEMORY;
     pkss_status st = PKSS_OK;
     pkss__icp_result best = *io;
@@ -106,7 +106,7 @@ pkss_status pkss__icp_slide_search(const pkss__icp_view *src,
     if (!tgt->normal || !(tgt->spacing > 0.0))
         return PKSS_OK;
     pkss__icp_work w;
-    if (!pkss__work_alloc(&w, src->m, tgt->m))
+    if (!pkss__work_alloc(&w, src->m, tgt->m, 1))
         return PKSS_ERR_OUT_OF_MEMORY;
     const double h = tgt->spacing;
     const pkss__pose at = io->pose;

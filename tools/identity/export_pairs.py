@@ -5,6 +5,7 @@ pkss_dump: every synthetic case x object x seed index and every real pair x
 seed index, as raw little-endian float64 files and a manifest.
 
     python3 tools/identity/export_pairs.py --out /tmp/pairs --seeds 3 --real-seeds 2 [--base-seed 0]
+        [--cases outliers20 partial ...]   (default: the paper's cases)
 
 The manifest has one line per pair: id, pkss seed, source file, target file.
 A separate --base-seed gives a validation base with other pairs."""
@@ -23,9 +24,11 @@ def main():
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--real-seeds", type=int, default=2)
     ap.add_argument("--base-seed", type=int, default=0)
+    ap.add_argument("--cases", nargs="*", default=C.SYNTH_CASES,
+                    help="synthetic cases (cases.SYNTH_CASES, cases.HARD_CASES)")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
-    items = [("s", o, c, i) for i in range(a.seeds) for c in C.SYNTH_CASES for o in C.OBJECTS]
+    items = [("s", o, c, i) for i in range(a.seeds) for c in a.cases for o in C.OBJECTS]
     items += [("r", p, None, i) for i in range(a.real_seeds) for p in C.REAL_PAIRS]
     with open(os.path.join(a.out, "manifest.txt"), "w") as man:
         for n, (kind, name, case, i) in enumerate(items):

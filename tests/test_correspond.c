@@ -1,0 +1,181 @@
+/* SPDX-License-Identifier: MIT
+ * test_correspond.c -- the ICP engine's correspondences (correspond.c).
+ *
+ * A work that remembers its queries (pkss__work_alloc(..., 1)) must give
+ * the answers of one that queries afresh every time, bit for bit: the same
+ * partners (ties to the lowest index) and the same squared distances, both
+ * ways, along walks of poses with small steps (answers remembered), jumps
+ * (renewed), gates that shrink, hold and reopen, and clouds with duplicate
+ * points and exact ties.
+ */
+#include "support.h"
+
+#include "refine/icp_parts.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static const char *PROGRAM = "test_correspond";
+static uint64_t g_seed;
+
+/* n points on a wavy sheet; with `ties`, on an integer grid of it and with
+ * every tenth point duplicated (stacks of identical points). */
+static double *make_sheet(pkss_test_rng *r, size_t n, int ties)
+{
+    double *x = malloc(3 * n * sizeof(double));
+    assert_non_null(x);
+    for (size_t i = 0; i < n; ++i) {
+        double u = 4.0 * pkss_test_uniform(r) - 2.0, v = 4.0 * pkss_test_uniform(r) - 2.0;
+        if (ties) {
+            u = floor(u * 8.0) / 8.0;
+            v = floor(v * 8.0) / 8.0;
+        }
+        x[3 * i] = u;
+        x[3 * i + 1] = v;
+        x[3 * i + 2] = ties ? 0.0 : 0.3 * sin(2.0 * u) * cos(1.5 * v);
+        if (ties && i % 10 == 9)
+            memcpy(x + 3 * i, x + 3 * (i - 1), 3 * sizeof(double));
+    }
+    return x;
+}
+
+typedef struct side {
+    double *pts;
+    pkss__kdtree *tree;
+    pkss__icp_view view;
+} side;
+
+static void side_make(side *s, double *pts, size_t n)
+{
+    memset(s, 0, sizeof *s);
+    s->pts = pts;
+    assert_int_equal(pkss__kdtree_build(pts, n, &s->tree), PKSS_OK);
+    s->view.pts = pts;
+    s->view.m = n;
+    s->view.tree = s->tree;
+    s->view.spacing = 4.0 / sqrt((double)n);
+}
+
+static void side_free(side *s)
+{
+    pkss__kdtree_free(s->tree);
+    free(s->pts);
+}
+
+/* A small random change of T: rotation by up to `turn` rad, translation up
+ * to `shift`, scale by up to `grow` (relative). */
+static void nudge(pkss_test_rng *r, double turn, double shift, double grow,
+                  pkss__pose *T)
+{
+    double axis[3] = {pkss_test_normal(r), pkss_test_normal(r), pkss_test_normal(r)};
+    double len = sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
+    double a = turn * pkss_test_uniform(r), c = cos(a), s = sin(a), k[3];
+    for (int d = 0; d < 3; ++d)
+        k[d] = axis[d] / len;
+    double Q[9] = {c + k[0] * k[0] * (1 - c), k[0] * k[1] * (1 - c) - k[2] * s,
+                   k[0] * k[2] * (1 - c) + k[1] * s, k[1] * k[0] * (1 - c) + k[2] * s,
+                   c + k[1] * k[1] * (1 - c), k[1] * k[2] * (1 - c) - k[0] * s,
+                   k[2] * k[0] * (1 - c) - k[1] * s, k[2] * k[1] * (1 - c) + k[0] * s,
+                   c + k[2] * k[2] * (1 - c)};
+    double R[9];
+    pkss__mat3_mul(Q, T->R, R);
+    memcpy(T->R, R, sizeof R);
+    for (int d = 0; d < 3; ++d)
+        T->t[d] += shift * (2.0 * pkss_test_uniform(r) - 1.0);
+    T->s *= 1.0 + grow * (2.0 * pkss_test_uniform(r) - 1.0);
+}
+
+static void assert_same_answers(const pkss__icp_work *a, const pkss__icp_work *b,
+                                size_t ns, size_t nt, int step)
+{
+    for (size_t i = 0; i < ns; ++i) {
+        if (a->fwd[i] != b->fwd[i] || a->fwd_d2[i] != b->fwd_d2[i])
+            fail_msg("step %d: forward answer %zu differs: %u (%a) vs %u (%a)", step, i,
+                     a->fwd[i], a->fwd_d2[i], b->fwd[i], b->fwd_d2[i]);
+    }
+    for (size_t j = 0; j < nt; ++j) {
+        if (a->bwd[j] != b->bwd[j] || a->bwd_d2[j] != b->bwd_d2[j])
+            fail_msg("step %d: backward answer %zu differs: %u (%a) vs %u (%a)", step, j,
+                     a->bwd[j], a->bwd_d2[j], b->bwd[j], b->bwd_d2[j]);
+    }
+}
+
+/* One walk: the remembering work against a fresh query at every step. */
+static void walk(pkss_test_rng *r, int ties, size_t ns, size_t nt)
+{
+    side src, tgt;
+    side_make(&src, make_sheet(r, ns, ties), ns);
+    side_make(&tgt, make_sheet(r, nt, ties), nt);
+    const double h = tgt.view.spacing;
+    pkss__icp_work memo, fresh;
+    assert_true(pkss__work_alloc(&memo, ns, nt, 1));
+    pkss__pose T;
+    pkss__mat3_identity(T.R);
+    T.s = 1.0;
+    T.t[0] = T.t[1] = T.t[2] = 0.0;
+    double gate = 12.0 * h;
+    size_t remembered = 0, asked = 0;
+    for (int step = 0; step < 120; ++step) {
+        if (step % 40 == 39)
+            nudge(r, 0.5, 10.0 * h, 0.2, &T); /* a jump: answers renewed */
+        else
+            nudge(r, 0.01, 0.05 * h, 0.003, &T); /* an ICP-sized step */
+        if (step % 40 == 20)
+            gate = 8.0 * h; /* reopened, as the scale stage does */
+        else if (gate > 3.0 * h)
+            gate *= 0.85;
+        pkss__correspond(&src.view, &tgt.view, &T, gate, &memo);
+        assert_true(pkss__work_alloc(&fresh, ns, nt, 0));
+        pkss__correspond(&src.view, &tgt.view, &T, gate, &fresh);
+        assert_same_answers(&memo, &fresh, ns, nt, step);
+        for (size_t i = 0; i < ns; ++i) {
+            double q[3];
+            pkss__pose_apply(&T, src.pts + 3 * i, q);
+            remembered += pkss__dist2(q, memo.fwd_memo.q0 + 3 * i) > 0.0;
+            ++asked;
+        }
+        pkss__work_free(&fresh);
+    }
+    /* the walk must have exercised the memo, not only fresh queries */
+    assert_true(remembered > asked / 4);
+    pkss__work_free(&memo);
+    side_free(&src);
+    side_free(&tgt);
+}
+
+static void test_remembered_answers_equal_fresh_queries(void **state)
+{
+    (void)state;
+    pkss_test_rng r = {g_seed};
+    walk(&r, 0, 1500, 1800);
+    walk(&r, 0, 3000, 700);
+}
+
+static void test_remembered_answers_keep_ties(void **state)
+{
+    (void)state;
+    pkss_test_rng r = {g_seed + 1};
+    walk(&r, 1, 1200, 1200);
+}
+
+/* Fewer points than a memo keeps: every answer still exact. */
+static void test_tiny_clouds(void **state)
+{
+    (void)state;
+    pkss_test_rng r = {g_seed + 2};
+    walk(&r, 0, 2, 3);
+    walk(&r, 1, 5, 1);
+}
+
+int main(void)
+{
+    g_seed = pkss_test_seed(PROGRAM, 20261202);
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_remembered_answers_equal_fresh_queries),
+        cmocka_unit_test(test_remembered_answers_keep_ties),
+        cmocka_unit_test(test_tiny_clouds),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
