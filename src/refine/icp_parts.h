@@ -27,10 +27,10 @@ double pkss__solve_plane(const pkss__icp_view *src, const pkss__icp_view *tgt,
                          pkss__pose *T);
 
 /* ---- correspondences (correspond.c) ---- */
-/* What one direction's last full query proved, per query point: where it
- * stood (q0), its nearest point within the query's reach (near, or
- * UINT32_MAX) and a lower bound on the distance to every other point (lb;
- * < 0 before the first query). correspond.c reuses it while it decides. */
+/* What one direction's last kd-tree query proved, per query point: where
+ * it stood (q0), its ICP_MEMO_K - 1 nearest points (near, UINT32_MAX where
+ * the tree has fewer) and the distance of the next one, a lower bound for
+ * every other point (lb; infinite if none, < 0 before the first query). */
 typedef struct pkss__nn_memo {
     double *q0, *lb;
     uint32_t *near;
