@@ -69,16 +69,12 @@ static void side_free(side *s)
 static void nudge(pkss_test_rng *r, double turn, double shift, double grow,
                   pkss__pose *T)
 {
-    double axis[3] = {pkss_test_normal(r), pkss_test_normal(r), pkss_test_normal(r)};
-    double len = sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
-    double a = turn * pkss_test_uniform(r), c = cos(a), s = sin(a), k[3];
+    double w[3] = {pkss_test_normal(r), pkss_test_normal(r), pkss_test_normal(r)};
+    double len = sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+    double a = turn * pkss_test_uniform(r), Q[9];
     for (int d = 0; d < 3; ++d)
-        k[d] = axis[d] / len;
-    double Q[9] = {c + k[0] * k[0] * (1 - c), k[0] * k[1] * (1 - c) - k[2] * s,
-                   k[0] * k[2] * (1 - c) + k[1] * s, k[1] * k[0] * (1 - c) + k[2] * s,
-                   c + k[1] * k[1] * (1 - c), k[1] * k[2] * (1 - c) - k[0] * s,
-                   k[2] * k[0] * (1 - c) - k[1] * s, k[2] * k[1] * (1 - c) + k[0] * s,
-                   c + k[2] * k[2] * (1 - c)};
+        w[d] *= a / len;
+    pkss__rotation_exp(w, Q);
     double R[9];
     pkss__mat3_mul(Q, T->R, R);
     memcpy(T->R, R, sizeof R);
