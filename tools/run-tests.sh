@@ -14,7 +14,7 @@
 #   5. the Python package installed with pip into a venv, and its pytest
 #      suite; then every packaging route (sdist, manylinux wheel, editable;
 #      tests/package/python_routes.sh);
-#   6. the benchmark's --quick smoke run.
+#   6. the benchmark's own unit tests (tools/bench/test_bench.py) and its --quick smoke run.
 # Needs the packages of tools/install-deps.sh.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -67,9 +67,10 @@ build/venv/bin/python -m pytest bindings/python/tests -q
 # sdist, auditwheel-repaired wheel and editable install, each in a fresh venv
 bash tests/package/python_routes.sh build/python-routes
 
-echo "== [6/6] benchmark smoke run (tools/bench/run.py --quick)"
+echo "== [6/6] benchmark: its own unit tests and a smoke run (tools/bench/run.py --quick)"
 if [ -f tools/bench/run.py ]; then
   build/venv/bin/python -m pip install -q -r tools/bench/requirements-quick.txt
+  build/venv/bin/python -m pytest tools/bench/test_bench.py -q
   build/venv/bin/python tools/bench/run.py --quick --out build/bench-quick
 fi
 echo "== all test stages passed"

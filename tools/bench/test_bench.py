@@ -112,3 +112,44 @@ def test_symmetric_rule_counts_images_not_misses():
     ev = Evaluator(cyl)
     assert ev(_turned(cyl, 37.0, [0, 0, 1]))["sym"]  # any turn about its axis
     assert not ev(_turned(cyl, 37.0, [1, 0, 0]))["strict"]
+
+
+def _rows(spec):
+    """Rows of report.load_rows' shape: (method, case, strict, seconds) each."""
+    return [{"method": m, "case": c, "case_id": f"{c}/obj/{i}", "obj": "obj",
+             "strict": ok, "rr": ok, "sym": False, "status": "ok", "time_s": t,
+             "mse": 0.0, "mse_n": 0.0, "gt_cos": 1.0, "rre_deg": 0.0, "pair_kind": "",
+             "overlap": 1.0}
+            for i, (m, c, ok, t) in enumerate(spec)]
+
+
+def test_paper_target_falls_back_to_the_fastest_peer():
+    """Issue #26: >= 3x faster than the fastest peer at >= 80 %, or than the
+    fastest of all where no peer reaches 80 %."""
+    import report
+    st = {"strict": 1.0, "time_median": 0.2}
+    good_slow = ("o3d_fpfh_ransac_icp", {"strict": 0.9, "time_median": 0.9})
+    bad_fast = ("small_gicp", {"strict": 0.1, "time_median": 0.1})
+    ok_rate, ok_time, best = report._judge_paper(st, 0.95, [good_slow, bad_fast])
+    assert ok_rate and ok_time and best[0] == "o3d_fpfh_ransac_icp"
+    weak = ("o3d_fpfh_ransac_icp", {"strict": 0.5, "time_median": 0.9})
+    ok_rate, ok_time, best = report._judge_paper(st, 0.95, [weak, bad_fast])
+    assert best[0] == "small_gicp" and not ok_time
+    assert report._judge_paper(st, 0.95, [])[1]  # nothing to be timed against
+
+
+def test_headline_takes_each_case_from_the_first_run_with_it():
+    import headline
+    first = _rows([("pkss", "similarity", True, 0.1), ("o3d_fgr", "similarity", True, 0.4),
+                   ("small_gicp", "similarity", False, 0.05),
+                   ("pkss", "defective", True, 0.3), ("small_gicp", "defective", False, 0.05)])
+    second = _rows([("pkss", "similarity", False, 9.0), ("pkss", "cut45", True, 0.5),
+                    ("o3d_fpfh_ransac_sicp", "cut45", True, 0.6),
+                    ("o3d_fpfh_ransac_icp", "cut45", False, 0.3)])
+    lines = headline.table([(first, 1), (second, 2)]).splitlines()
+    body = {ln.split(" | ")[0].lstrip("| "): ln for ln in lines[2:]}
+    assert body["similarity"].endswith("| FGR 100 % (0.40 s) | 1 |")
+    assert "| 100 % | 0.10 s |" in body["similarity"]
+    assert "no peer succeeds" in body["30–50 % missing"]
+    assert body["half-space cut 45 %"].endswith("| FPFH+RANSAC+scaled ICP 100 % (0.60 s) | 2 |")
+    assert len(body) == 3
