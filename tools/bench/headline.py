@@ -24,8 +24,9 @@ from methods import LABELS  # noqa: E402
 
 BEGIN, END = "<!-- results:begin -->", "<!-- results:end -->"
 
-# (README label, case filter): the paper's cases, then the hard families
-CASES = [
+# (README label, case filter): the paper's cases, then the hard families of
+# report.HARD_TARGETS (their labels and filters)
+PAPER_CASES = [
     ("similarity", report._is("similarity")),
     ("density bands", report._is("density")),
     ("30–50 % missing", report._is("defective")),
@@ -33,16 +34,9 @@ CASES = [
     ("5 % outliers", report._is("outliers")),
     ("all combined", report._is("combined")),
     ("real pairs ≥ 45 % overlap", report._real(report.real_scan_hi)),
-    # HARD_FROM: the hard families start here
-    ("20 % outliers", report._is("outliers20")),
-    ("half-space cut 45 %", report._is("cut45")),
-    ("partial-to-partial 40 / 30 %", report._is("partial")),
-    ("Gaussian noise r = 0.8", report._is("noise_g0.8")),
-    ("hard stripes", report._is("stripes")),
-    ("scale 1/10 … 10", report._is("scale10")),
-    ("all of these at once", report._is("allpert")),
 ]
-HARD_FROM = 7
+HARD_CASES = [(label, pred) for label, pred, _ in report.HARD_TARGETS]
+CASES = PAPER_CASES + HARD_CASES
 
 
 def stamp(results_md):
@@ -61,20 +55,6 @@ def short_name(method):
     return label.split(" (")[0]
 
 
-def strongest_peer(rows, pred):
-    """(method, stats) of the peer with the highest strict success on pred
-    (the faster on a tie), or None."""
-    best = None
-    for m in report.method_order(rows):
-        if m in ("pkss", "identity"):
-            continue
-        ps = report.stats(report._sel(rows, m, pred))
-        if ps and (best is None or (ps["strict"], -ps["time_median"]) >
-                   (best[1]["strict"], -best[1]["time_median"])):
-            best = (m, ps)
-    return best
-
-
 def table(runs):
     """runs: [(rows, run number)]; a case comes from the first run with it."""
     out = ["| case | pkss strict | pkss median time | most successful peer (strict, median time) | run |",
@@ -84,7 +64,7 @@ def table(runs):
             st = report.stats(report._sel(rows, "pkss", pred))
             if st is None:
                 continue
-            best = strongest_peer(rows, pred)
+            best = report.most_successful_peer(report._peer_stats(rows, pred))
             peer = "none" if best is None else "no peer succeeds" if best[1]["strict"] == 0 else (
                 f"{short_name(best[0])} {100 * best[1]['strict']:.0f} % "
                 f"({best[1]['time_median']:.2f} s)")
@@ -108,7 +88,7 @@ def intro(out_dirs, runs, with_hard):
         [f"Measured by `tools/bench/run.py`, every method on the same pairs in each run; "
          f"{machine}. Strict success: rotation < 5°, translation < 2 % of the diameter, "
          "scale < 2 %, or a pose the shape's symmetry makes equivalent."
-         + (f" The rows from {CASES[HARD_FROM][0]} on are the harder families of "
+         + (f" The rows from {HARD_CASES[0][0]} on are the harder families of "
             "`tools/bench/README.md`." if with_hard else ""), ""] + parts)
 
 
@@ -116,7 +96,7 @@ def block(out_dirs):
     runs = [(report.load_rows(os.path.join(d, "pairs.csv")), k + 1)
             for k, d in enumerate(out_dirs)]
     with_hard = any(report._sel(rows, "pkss", pred)
-                    for rows, _ in runs for _, pred in CASES[HARD_FROM:])
+                    for rows, _ in runs for _, pred in HARD_CASES)
     return "\n".join([BEGIN, intro(out_dirs, runs, with_hard), "", table(runs), END])
 
 

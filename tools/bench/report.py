@@ -317,10 +317,16 @@ def _judge_paper(st, tgt, ps):
     return st["strict"] >= tgt, ok_time, best
 
 
+def most_successful_peer(ps):
+    """The (method, stats) of ps with the highest strict success (the faster
+    on a tie), or None."""
+    return max(ps, key=lambda p: (p[1]["strict"], -p[1]["time_median"]), default=None)
+
+
 def _judge_hard(st, tgt, ps):
     """The rate target and every peer's rate; <= HARD_MAX_SECONDS and
     HARD_SPEEDUP x faster than the most successful peer."""
-    best = max(ps, key=lambda p: (p[1]["strict"], -p[1]["time_median"]), default=None)
+    best = most_successful_peer(ps)
     ok_rate = st["strict"] >= tgt and all(st["strict"] >= sp["strict"] for _, sp in ps)
     ok_time = st["time_median"] <= HARD_MAX_SECONDS and (
         best is None or st["time_median"] * HARD_SPEEDUP <= best[1]["time_median"])
