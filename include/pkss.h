@@ -456,7 +456,12 @@ typedef struct pkss_candidate {
     uint32_t search;            /* 0: the paper's offset grid; 1: the wide
                                    second search; 2: a shift of the winner
                                    (its rotation and scale, another
-                                   translation; added after 1.0) */
+                                   translation; added after 1.0); 3: a
+                                   local-feature match where both clouds
+                                   are parts (no grid: rotation_index and
+                                   offset_index UINT32_MAX; scores: the
+                                   paper's G at its start pose; added
+                                   after 1.0) */
 } pkss_candidate;
 
 /** How far a candidate's refinement went (pkss_candidate.stage). */

@@ -379,6 +379,13 @@ size_t pkss__select_top_k(const float *scores, const float *gc,
                           const float *gf, const pkss__rotation_set *rot,
                           size_t n_offsets, size_t top_k, pkss__pick *out);
 
+/* The search's measure at one pose (R applied to in's pre-aligned source
+ * points, the template's cells about t): G_contour, G_feature (0 without
+ * features) and G_K = their max into out's scores (no trimming, no guard
+ * beyond pkss_score_pair's). */
+pkss_status pkss__score_pose(const pkss__search_input *in, const double *R,
+                             const double *t, pkss__pick *out);
+
 /* refine: src/refine/icp.h (the ICP engine), src/refine/stages.h */
 
 /* assess: src/refine/assess.h (confidence, alternatives, symmetry) */

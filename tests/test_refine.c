@@ -1,8 +1,10 @@
 /* SPDX-License-Identifier: MIT
  * test_refine.c -- the refinement (SPEC 6, icp.c) of parts of real scans:
  * the slide search that ends it, from a pose slid along a box, a scale
- * stage held to a bar that must not stop while its scale still moves, and
- * the shift search that moves a part of a corridor onto its own walls.
+ * stage held to a bar that must not stop while its scale still moves, a
+ * run that lies closer than the leader's fit and must not stop at all, the
+ * shift search that moves a part of a corridor onto its own walls, and the
+ * local-feature starts of a pair cut on both sides.
  */
 #include "support.h"
 
@@ -80,6 +82,15 @@ static void part_teardown(part_fixture *f)
     free(f->whole);
 }
 
+/* A context and the prepared clouds of source s and target t. */
+static void make_clouds(const double *s, size_t ns, const double *t, size_t nt,
+                        pkss_context **ctx, pkss_cloud **src, pkss_cloud **tgt)
+{
+    assert_int_equal(pkss_context_create(ctx), PKSS_OK);
+    assert_int_equal(pkss_cloud_create(*ctx, s, ns, src), PKSS_OK);
+    assert_int_equal(pkss_cloud_create(*ctx, t, nt, tgt), PKSS_OK);
+}
+
 /* The milk carton (one RGB-D view), 43 % cut away around its min-y point,
  * noise sigma = half the scan's spacing (0.00147). From the truth slid 10
  * spacings either way along the carton, the point-to-plane polish that
@@ -129,6 +140,19 @@ static void test_slide_search_returns_box_part(void **state)
     part_teardown(&f);
 }
 
+/* The chef part of the two tests below and their start: the truth turned
+ * 10 degrees about z and 35 % too small. */
+static void chef_part_off(part_fixture *f, pkss__pose *start)
+{
+    part_setup(f, CHEF, 2, 0.4, 0.25 * 0.00299);
+    *start = f->truth;
+    start->s *= 0.65;
+    const double w[3] = {0.0, 0.0, 10.0 * 3.14159265358979323846 / 180.0};
+    double dR[9];
+    pkss__rotation_exp(w, dR);
+    pkss__mat3_mul(dR, f->truth.R, start->R);
+}
+
 /* The chef, 40 % cut away around its min-z point, noise sigma = a quarter
  * of the scan's spacing (0.00299), from the truth turned 10 degrees and
  * 35 % too small, through the full schedule with its scale stage held to
@@ -141,13 +165,8 @@ static void test_scale_stage_runs_while_scale_moves(void **state)
 {
     (void)state;
     part_fixture f;
-    part_setup(&f, CHEF, 2, 0.4, 0.25 * 0.00299);
-    pkss__pose start = f.truth;
-    start.s *= 0.65;
-    const double w[3] = {0.0, 0.0, 10.0 * 3.14159265358979323846 / 180.0};
-    double dR[9];
-    pkss__rotation_exp(w, dR);
-    pkss__mat3_mul(dR, f.truth.R, start.R);
+    pkss__pose start;
+    chef_part_off(&f, &start);
     /* the full schedule, the scale stage judged against the bar */
     const double bar = 0.9 * f.truth_overlap;
     const pkss__icp_stops stops = {.scale_bar = bar};
@@ -164,6 +183,36 @@ static void test_scale_stage_runs_while_scale_moves(void **state)
     assert_true(scale_err < 0.01);
     assert_true(rot_deg < 1.0);
     assert_true(r.overlap >= bar);
+    part_teardown(&f);
+}
+
+/* The same part and start, the scale stage held to a bar no run can reach
+ * (an overlap of 1.5). Without a fit bar the run is stopped; with the fit
+ * of a leader that lies on the template less closely than the truth does
+ * (half the truth's fit) it goes on to the truth, as the winner is chosen
+ * by fit; a fit bar above the truth's stops it again. */
+static void test_fit_bar_keeps_a_closer_run(void **state)
+{
+    (void)state;
+    part_fixture f;
+    pkss__pose start;
+    chef_part_off(&f, &start);
+    const double fit_bars[3] = {0.0, 0.5 * f.truth_fit, 1.0};
+    pkss__icp_result r[3];
+    for (int k = 0; k < 3; ++k) {
+        const pkss__icp_stops stops = {.scale_bar = 1.5, .fit_bar = fit_bars[k]};
+        assert_int_equal(pkss__icp_run(&f.sv, &f.tv, &pkss__schedule_full, &stops, &start,
+                                       &r[k]), PKSS_OK);
+        printf("  fit at the truth %.3f; fit bar %.3f: %s after %d iterations, fit %.3f, "
+               "scale %.2f %% off\n", f.truth_fit, fit_bars[k],
+               r[k].abandoned ? "abandoned" : "converged", r[k].iterations, r[k].fit,
+               100 * fabs(r[k].pose.s / f.truth.s - 1.0));
+    }
+    assert_true(r[0].abandoned);
+    assert_false(r[1].abandoned);
+    assert_true(fabs(r[1].pose.s / f.truth.s - 1.0) < 0.01);
+    assert_true(pkss__rotation_angle(r[1].pose.R, f.truth.R) < 1.0 * 3.14159265358979323846 / 180.0);
+    assert_true(r[2].abandoned);
     part_teardown(&f);
 }
 
@@ -221,9 +270,7 @@ static void test_shift_search_finds_the_right_walls(void **state)
     }
     pkss_context *ctx;
     pkss_cloud *src, *tgt;
-    assert_int_equal(pkss_context_create(&ctx), PKSS_OK);
-    assert_int_equal(pkss_cloud_create(ctx, s, ns, &src), PKSS_OK);
-    assert_int_equal(pkss_cloud_create(ctx, t, nt, &tgt), PKSS_OK);
+    make_clouds(s, ns, t, nt, &ctx, &src, &tgt);
     pkss__icp_view svc, tv;
     pkss__icp_view_coarse(src, &svc);
     pkss__icp_view_full(tgt, &tv);
@@ -260,12 +307,85 @@ static void test_shift_search_finds_the_right_walls(void **state)
     free(t);
 }
 
+/* The chef cut on both sides: 40 % of the points around its min-x point
+ * gone from the source, 30 % around its max-z point from the target, the
+ * source then turned 120 degrees about a skew axis, scaled by 0.7 and
+ * moved. Neither cloud holds the other, and their centroids lie apart.
+ * The local-feature starts (local_match.c) must hold one within a coarse
+ * level's reach of the truth: 5 degrees, 5 % in scale, 5 spacings. */
+static void test_local_starts_find_a_part_pair(void **state)
+{
+    (void)state;
+    size_t n, ns, nt;
+    double *whole = pkss_test_load(CHEF, &n);
+    assert_non_null(whole);
+    double *s = pkss_test_cut_near(whole, n, pkss_test_extreme(whole, n, 0, 1), 0.4, &ns);
+    double *t = pkss_test_cut_near(whole, n, pkss_test_extreme(whole, n, 2, 0), 0.3, &nt);
+    assert_non_null(s);
+    assert_non_null(t);
+    const double axis[3] = {0.48, -0.6, 0.64}, angle = 120.0 * 3.14159265358979323846 / 180.0;
+    double w[3], R0[9], T[16] = {0};
+    for (int d = 0; d < 3; ++d)
+        w[d] = angle * axis[d];
+    pkss__rotation_exp(w, R0);
+    const double s0 = 0.7, t0[3] = {0.3, -0.2, 0.5};
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c)
+            T[4 * r + c] = s0 * R0[3 * r + c];
+        T[4 * r + 3] = t0[r];
+    }
+    T[15] = 1.0;
+    pkss_test_apply(T, s, ns, s);
+    pkss_context *ctx;
+    pkss_cloud *src, *tgt;
+    make_clouds(s, ns, t, nt, &ctx, &src, &tgt);
+    pkss__icp_view svc, tvc;
+    pkss__icp_view_coarse(src, &svc);
+    pkss__icp_view_coarse(tgt, &tvc);
+    /* the truth between the pre-shapes: x_t = T^-1 x_s, in each one's frame */
+    pkss__pose truth;
+    double Rc[3], d[3];
+    pkss__mat3_transpose(R0, truth.R);
+    truth.s = src->sigma / (s0 * tgt->sigma);
+    for (int k = 0; k < 3; ++k)
+        d[k] = src->centroid[k] - t0[k];
+    pkss__mat3_apply(truth.R, d, Rc);
+    for (int k = 0; k < 3; ++k)
+        truth.t[k] = (Rc[k] / s0 - tgt->centroid[k]) / tgt->sigma;
+    pkss__pose starts[PKSS_LOCAL_STARTS];
+    size_t n_starts = 0;
+    double t_start = pkss__now();
+    assert_int_equal(pkss__local_starts(&svc, &tvc, 7, PKSS_LOCAL_STARTS, starts, &n_starts),
+                     PKSS_OK);
+    double took = pkss__now() - t_start;
+    int near = 0;
+    for (size_t k = 0; k < n_starts; ++k) {
+        double deg = pkss__rotation_angle(starts[k].R, truth.R) * 180.0 / 3.14159265358979323846;
+        double ds = fabs(starts[k].s / truth.s - 1.0);
+        double dt = distance3(starts[k].t, truth.t) / tvc.spacing;
+        printf("  start %zu: %.1f deg, scale %.1f %%, %.1f coarse spacings from the truth\n",
+               k, deg, 100 * ds, dt);
+        near |= pkss__same_basin(&starts[k], &truth, tvc.spacing, &pkss__start_basin);
+    }
+    printf("  %zu starts from %zu x %zu coarse points in %.1f ms\n", n_starts, svc.m, tvc.m,
+           1e3 * took);
+    assert_true(near);
+    pkss_cloud_destroy(src);
+    pkss_cloud_destroy(tgt);
+    pkss_context_destroy(ctx);
+    free(s);
+    free(t);
+    free(whole);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_slide_search_returns_box_part),
         cmocka_unit_test(test_scale_stage_runs_while_scale_moves),
+        cmocka_unit_test(test_fit_bar_keeps_a_closer_run),
         cmocka_unit_test(test_shift_search_finds_the_right_walls),
+        cmocka_unit_test(test_local_starts_find_a_part_pair),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -84,6 +84,7 @@ typedef struct icp_state {
     double h, gate, floor_gate;
     double ring[ICP_GAIN_WINDOW + 1];
     int n_ring, it;
+    int beats_fit; /* its fit passed fit_bar: no bar stops it any more */
 } icp_state;
 
 enum { RIGID = 0, SCALE = 1 };
@@ -105,12 +106,26 @@ static size_t stage_pairs(icp_state *r, int stage, double *d2max)
     return n;
 }
 
-/* Scores the pose on all points into out and marks the run abandoned. */
-static void abandon(icp_state *r)
+/* Scores the pose on all points into out. */
+static void score_pose(icp_state *r)
 {
     pkss__overlap_with(r->src, r->tgt, &r->T, &r->w, &r->out->overlap,
                        &r->out->rms, r->out->cover, &r->out->fit);
-    r->out->abandoned = 1;
+}
+
+/* Marks the run, scored, abandoned unless its fit beats the fit bar (then
+ * it goes on, and no bar stops it any more); returns whether it was. */
+static int abandon_scored(icp_state *r)
+{
+    r->beats_fit = r->stops.fit_bar > 0.0 && r->out->fit > r->stops.fit_bar;
+    r->out->abandoned = !r->beats_fit;
+    return r->out->abandoned;
+}
+
+static int abandon(icp_state *r)
+{
+    score_pose(r);
+    return abandon_scored(r);
 }
 
 /* The overlap window at the floor (or in the scale stage): sets *stagnant,
@@ -141,10 +156,8 @@ static int track_overlap(icp_state *r, int stage, const pkss__pose *prev,
     double gain = (ov - old) / ICP_GAIN_WINDOW;
     *stagnant = ov - old < ICP_STAGNANT && change < ICP_SETTLED_MOVE;
     double reach = ov + (gain > 0.0 ? gain : 0.0) * (double)(stage_end - r->it);
-    if (bar > 0.0 && reach < bar && !scale_moving) {
-        abandon(r);
-        return 1;
-    }
+    if (bar > 0.0 && reach < bar && !scale_moving && !r->beats_fit)
+        return abandon(r);
     return 0;
 }
 
@@ -211,11 +224,10 @@ static int rigid_stage(icp_state *r, pkss_status *st)
     if (!s->free_scale || s->rigid_iters <= 0)
         return ITER_GO;
     /* the rigid stage ended (settled or out of iterations) below its bar */
-    if (r->stops.rigid_bar > 0.0) {
-        abandon(r);
-        if (r->out->overlap < r->stops.rigid_bar)
+    if (r->stops.rigid_bar > 0.0 && !r->beats_fit) {
+        score_pose(r);
+        if (r->out->overlap < r->stops.rigid_bar && abandon_scored(r))
             return ITER_RUN_DONE;
-        r->out->abandoned = 0;
     }
     pkss__basins_add(r->stops.basins, &r->T, r->stops.id);
     return ITER_GO;
@@ -264,7 +276,7 @@ pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
                           const pkss__icp_stops *stops,
                           const pkss__pose *init, pkss__icp_result *out)
 {
-    static const pkss__icp_stops none = {0.0, 0.0, NULL, 0};
+    static const pkss__icp_stops none = {0.0, 0.0, NULL, 0, 0.0};
     icp_state r = {.src = src, .tgt = tgt, .sched = sched, .out = out, .T = *init};
     r.stops = stops ? *stops : none;
     if (!sched->free_scale)

@@ -82,11 +82,14 @@ void pkss__basins_add(pkss__basins *b, const pkss__pose *T, int id);
  * ends below rigid_bar, or either stage projected to end below its bar,
  * stops the run (abandoned). With basins and a free scale, a run that
  * reaches another run's minimum stops there (duplicate_of), and records
- * its own under id. */
+ * its own under id. A run that already lies on the template more closely
+ * than fit_bar (a fit, 0: none) is not stopped by a bar: the winner is
+ * chosen by fit, and a loose overlap can hide the closer fit. */
 typedef struct pkss__icp_stops {
     double rigid_bar, scale_bar; /* 0: none */
     pkss__basins *basins;
     int id;
+    double fit_bar;
 } pkss__icp_stops;
 
 typedef struct pkss__icp_result {
@@ -124,6 +127,13 @@ pkss_status pkss__icp_scale_search(const pkss__icp_view *src,
 pkss_status pkss__icp_slide_search(const pkss__icp_view *src,
                                    const pkss__icp_view *tgt, double min_gain,
                                    pkss__icp_result *io);
+/* Similarity poses of the source's coarse view onto the template's from
+ * local shape alone: FPFH matches and a RANSAC over them (local_match.c),
+ * at most max (<= PKSS_LOCAL_KEPT), most matches within reach first, one
+ * per basin (pkss__start_basin). seed: the call's. */
+pkss_status pkss__local_starts(const pkss__icp_view *src_coarse,
+                               const pkss__icp_view *tgt_coarse, uint64_t seed,
+                               size_t max, pkss__pose *starts, size_t *n_starts);
 /* Translations of held (its rotation and scale kept) at which clearly more
  * of the source's coarse points meet a template point than at held's (a
  * vote per point and translation cell), at most max (<= PKSS_SHIFT_TRIALS),

@@ -2,9 +2,9 @@
  * register.c -- PKSS-Align end to end (Algorithm 1; docs/design.md): both
  * clouds onto the pre-shape space (preshape/), the global search over
  * rotations x centre offsets (search/), the refinement stages (stages.c),
- * a wide second search, a shift search and a slide search where the
- * winner shows a part, and the winner composed back into the caller's
- * coordinates.
+ * a wide second search, starts from local shape, a shift search and a
+ * slide search where the winner shows a part, and the winner composed back
+ * into the caller's coordinates.
  */
 #include "refine/assess.h"
 #include "refine/stages.h"
@@ -152,29 +152,13 @@ static pkss_status refine_stage(pkss_context *ctx, const pkss__search_setup *ss,
                                 pkss__refinement *rs, size_t base, size_t kept,
                                 double lead_in)
 {
-    const int refine = ctx->params.refine;
-    int scored[PKSS_MAX_CANDIDATES], order[PKSS_MAX_CANDIDATES], rest[PKSS_MAX_CANDIDATES];
+    int scored[PKSS_MAX_CANDIDATES];
     PKSS_FORWARD(pkss__checkpoint(ctx->run, PKSS_PROGRESS_REFINE, 0, (uint32_t)kept));
-    PKSS_FORWARD(pkss__stage_coarse_levels(rs, ss, src, tgt, base, kept, refine, scored));
-    if (!refine)
+    PKSS_FORWARD(pkss__stage_coarse_levels(rs, ss, src, tgt, base, kept,
+                                           ctx->params.refine, scored));
+    if (!ctx->params.refine)
         return PKSS_OK;
-    const pkss__icp_result *ir = rs->ir + base;
-    pkss__order_by_overlap(ir, kept, order);
-    size_t n_full = pkss__initial_full_count(ir, order, kept), n_rest = 0;
-    rs->lead_overlap = lead_in;
-    rs->lead_here = 0.0;
-    for (size_t i = 0; i < kept; ++i) {
-        size_t c = base + (size_t)order[i];
-        PKSS_FORWARD(pkss__checkpoint(ctx->run, PKSS_PROGRESS_REFINE, (uint32_t)i,
-                                      (uint32_t)kept));
-        rs->refined[c] = pkss__wants_full_run(rs, ir, order, i, &n_full,
-                                              rs->v.tvc.spacing);
-        if (rs->refined[c])
-            PKSS_FORWARD(pkss__stage_full_run(rs, c, 0));
-        else if (!scored[order[i]])
-            rest[n_rest++] = (int)c;
-    }
-    return pkss__stage_score_rest(rs, rest, n_rest);
+    return pkss__stage_full_runs(rs, base, kept, lead_in, scored);
 }
 
 /* One search and the refinement of its candidates, timed. */
@@ -235,6 +219,28 @@ static pkss_status wide_search_stage(pkss_context *ctx, const pkss_cloud *src,
     return PKSS_OK;
 }
 
+/* Candidates from local shape (stages.c: pkss__stage_local) when winner w
+ * covers neither cloud wholly after both searches: both are parts, which
+ * the searches' centroid-based cells misjudge. They must beat w's fit. */
+static pkss_status local_stage(pkss_context *ctx, const pkss__search_setup *ss,
+                               pkss__refinement *rs, int *w)
+{
+    const pkss__icp_result *win = &rs->ir[*w];
+    if (!(ctx->params.refine && rs->n < PKSS_MAX_CANDIDATES &&
+          fmax(win->cover[0], win->cover[1]) < PKSS_PART_COVERED))
+        return PKSS_OK;
+    double t0 = pkss__now();
+    size_t added = 0;
+    pkss_status st = pkss__stage_local(rs, ss, (uint64_t)ctx->params.seed,
+                                       win->overlap_unpolished, &added);
+    if (st != PKSS_OK)
+        return fail_step(ctx, st);
+    if (added)
+        *w = pkss__pick_winner(rs);
+    rs->refine_seconds += pkss__now() - t0;
+    return PKSS_OK;
+}
+
 /* The shift search on the winner and the winner again, timed. */
 static pkss_status shift_stage(pkss_context *ctx, pkss__refinement *rs, int *w)
 {
@@ -267,7 +273,7 @@ static pkss_status slide_stage(pkss_context *ctx, pkss__refinement *rs, int w)
 /* The candidates and the winner in caller coordinates (pkss_result). */
 static void report(const pkss_cloud *src, const pkss_cloud *tgt,
                    const pkss__refinement *rs, size_t n_first, size_t n_searched,
-                   int best, outcome *out)
+                   size_t n_local, int best, outcome *out)
 {
     pkss_result *res = &out->res;
     for (size_t c = 0; c < rs->n; ++c) {
@@ -285,7 +291,7 @@ static void report(const pkss_cloud *src, const pkss_cloud *tgt,
         cand->stage = rs->stage[c];
         cand->rotation_index = pk->rotation;
         cand->offset_index = pk->offset;
-        cand->search = c < n_first ? 0u : (c < n_searched ? 1u : 2u);
+        cand->search = c < n_first ? 0u : c < n_searched ? 1u : c < n_local ? 3u : 2u;
     }
     compose(src, tgt, &rs->ir[best].pose, res->T_target_source, &res->scale,
             res->rotation, res->translation);
@@ -300,8 +306,8 @@ static void report(const pkss_cloud *src, const pkss_cloud *tgt,
 }
 
 /* Algorithm 1 after pre-processing: the search set-up, the first search
- * and its refinement, the wide second search, the slide search, and the
- * report. */
+ * and its refinement, the wide second search, the local-feature starts,
+ * the shift and slide searches, and the report. */
 static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
                        const pkss_cloud *tgt, outcome *out)
 {
@@ -332,13 +338,16 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
                                 &out->res.n_evaluations)) != PKSS_OK)
         goto done;
     const size_t n_searched = rs->n;
+    if ((st = local_stage(ctx, ss, rs, &best)) != PKSS_OK)
+        goto done;
+    const size_t n_local = rs->n;
     if ((st = shift_stage(ctx, rs, &best)) != PKSS_OK)
         goto done;
     if ((st = slide_stage(ctx, rs, best)) != PKSS_OK)
         goto done;
     out->res.n_rotations = (uint32_t)ss->rot.n_rotations;
     out->res.n_offsets = (uint32_t)ss->n_offsets;
-    report(src, tgt, rs, n_first, n_searched, best, out);
+    report(src, tgt, rs, n_first, n_searched, n_local, best, out);
     /* How far to trust it: alternatives, symmetry, confidence (assess.c). */
     pkss__assess_input ai = {&rs->v.sv, &rs->v.tv, &rs->v.svc, &rs->v.tvc, tgt->sigma,
                              tgt->centroid, rs->ir, out->cand, rs->n, best,

@@ -59,7 +59,7 @@ static void local_rotation(const float *src_pts, int n_src,
 
 /* Work on candidates that is independent across them, over the caller and
  * the call's helper thread (each ICP run owns its buffers). */
-enum { CAND_START = 0, CAND_OVERLAP = 1 };
+enum { CAND_START = 0, CAND_OVERLAP = 1, CAND_FROM_POSE = 2 };
 
 typedef struct cand_work {
     pkss__refinement *rs;
@@ -72,7 +72,8 @@ typedef struct cand_work {
 
 /* CAND_START: the initial pose O_r * O_f * R_pre (Eq. 7-9) and the coarse
  * level (or, unrefined, the overlap at that pose). CAND_OVERLAP: the
- * overlap score of the pose in ir[c] on all points. */
+ * overlap score of the pose in ir[c] on all points. CAND_FROM_POSE: the
+ * coarse level from the pose in ir[c]. */
 static void cand_one(const cand_work *w, int c)
 {
     pkss__refinement *rs = w->rs;
@@ -82,6 +83,13 @@ static void cand_one(const cand_work *w, int c)
         rs->st[c] = pkss__icp_overlap(&v->sv, &v->tv, &r->pose, &r->overlap,
                                       &r->rms, &r->fit);
         r->overlap_unpolished = r->overlap;
+        return;
+    }
+    if (w->phase == CAND_FROM_POSE) {
+        pkss__pose init = r->pose;
+        rs->st[c] = pkss__icp_run(&v->svc, &v->tvc, &pkss__schedule_coarse, NULL,
+                                  &init, r);
+        rs->stage[c] = PKSS_STAGE_COARSE;
         return;
     }
     const pkss__search_setup *ss = w->ss;
@@ -219,6 +227,95 @@ int pkss__wants_full_run(const pkss__refinement *rs, const pkss__icp_result *ir,
     return i < *n_full && !same_basin && rs->lead_here < PKSS_COARSE_COMPLETE;
 }
 
+pkss_status pkss__stage_full_runs(pkss__refinement *rs, size_t base, size_t kept,
+                                  double lead_in, const int *scored)
+{
+    int order[PKSS_MAX_CANDIDATES], rest[PKSS_MAX_CANDIDATES];
+    const pkss__icp_result *ir = rs->ir + base;
+    pkss__order_by_overlap(ir, kept, order);
+    size_t n_full = pkss__initial_full_count(ir, order, kept), n_rest = 0;
+    rs->lead_overlap = lead_in;
+    rs->lead_here = 0.0;
+    for (size_t i = 0; i < kept; ++i) {
+        size_t c = base + (size_t)order[i];
+        PKSS_FORWARD(pkss__checkpoint(rs->v.sv.run, PKSS_PROGRESS_REFINE, (uint32_t)i,
+                                      (uint32_t)kept));
+        rs->refined[c] = pkss__wants_full_run(rs, ir, order, i, &n_full,
+                                              rs->v.tvc.spacing);
+        if (rs->refined[c])
+            PKSS_FORWARD(pkss__stage_full_run(rs, c, 0));
+        else if (!scored[order[i]])
+            rest[n_rest++] = (int)c;
+    }
+    return pkss__stage_score_rest(rs, rest, n_rest);
+}
+
+/* ---- local-feature starts --------------------------------------------- */
+
+/* Appends poses[0..n) as candidates, each scored by the search's measure
+ * at its pose (no grid indices), with their coarse levels. */
+static pkss_status append_starts(pkss__refinement *rs, const pkss__search_setup *ss,
+                                 const pkss__pose *poses, size_t n)
+{
+    int list[PKSS_MAX_CANDIDATES];
+    double pre_t[9];
+    pkss__mat3_transpose(ss->R_pre, pre_t); /* the search's source is pre-aligned */
+    for (size_t k = 0; k < n; ++k) {
+        size_t c = rs->n + k;
+        double R[9];
+        pkss__mat3_mul(poses[k].R, pre_t, R);
+        PKSS_FORWARD(pkss__score_pose(&ss->in, R, poses[k].t, &rs->picks[c]));
+        rs->picks[c].rotation = rs->picks[c].offset = UINT32_MAX;
+        memset(&rs->ir[c], 0, sizeof rs->ir[c]);
+        rs->ir[c].pose = poses[k];
+        rs->refined[c] = 0;
+        list[k] = (int)c;
+    }
+    rs->n += n;
+    cand_work cw = {rs, NULL, NULL, NULL, 1, CAND_FROM_POSE, list, n, 0, 1};
+    return for_each_candidate(&cw);
+}
+
+/* Drops the candidates from base on whose coarse pose lies in the basin of
+ * a refined candidate before base (they would arrive at its minimum). */
+static void drop_known_basins(pkss__refinement *rs, size_t base)
+{
+    size_t kept = base;
+    for (size_t c = base; c < rs->n; ++c) {
+        int known = 0;
+        for (size_t j = 0; j < base && !known; ++j)
+            known = rs->refined[j] && pkss__same_basin(&rs->ir[c].pose, &rs->ir[j].pose,
+                                                       rs->v.tvc.spacing,
+                                                       &pkss__start_basin);
+        if (known)
+            continue;
+        rs->ir[kept] = rs->ir[c];
+        rs->stage[kept] = rs->stage[c];
+        rs->st[kept] = rs->st[c];
+        ++kept;
+    }
+    rs->n = kept;
+}
+
+pkss_status pkss__stage_local(pkss__refinement *rs, const pkss__search_setup *ss,
+                              uint64_t seed, double lead_in, size_t *added)
+{
+    pkss__pose starts[PKSS_LOCAL_STARTS];
+    const size_t base = rs->n, room = PKSS_MAX_CANDIDATES - base;
+    size_t n = 0;
+    *added = 0;
+    PKSS_FORWARD(pkss__local_starts(&rs->v.svc, &rs->v.tvc, seed,
+                                    room < PKSS_LOCAL_STARTS ? room : PKSS_LOCAL_STARTS,
+                                    starts, &n));
+    PKSS_FORWARD(append_starts(rs, ss, starts, n));
+    drop_known_basins(rs, base);
+    static const int none_scored[PKSS_LOCAL_STARTS];
+    *added = rs->n - base;
+    if (*added == 0)
+        return PKSS_OK;
+    return pkss__stage_full_runs(rs, base, *added, lead_in, none_scored);
+}
+
 /* ---- a full run ------------------------------------------------------- */
 
 int pkss__part_mode(double fs, double ft, int otherwise)
@@ -261,7 +358,7 @@ pkss_status pkss__stage_full_run(pkss__refinement *rs, size_t c, int scale_known
     /* judged against the leader on all points in the rigid stage (the coarse
      * level may stop mid-way), and in the scale stage against this search's */
     pkss__icp_stops stops = {PKSS_FULL_REFINE_RATIO * rs->lead_overlap, rs->lead_here,
-                             &rs->basins, (int)c};
+                             &rs->basins, (int)c, rs->lead_fit};
     pkss__pose start = scaled.pose;
     PKSS_FORWARD(pkss__icp_run(&rs->v.sv, &rs->v.tv, &sched, &stops, &start, r));
     if (r->duplicate_of >= 0 || r->abandoned) {
@@ -275,6 +372,7 @@ pkss_status pkss__stage_full_run(pkss__refinement *rs, size_t c, int scale_known
      * ~0.01-0.03 and made the others' scale stages stop short of it */
     rs->lead_overlap = fmax(rs->lead_overlap, r->overlap_unpolished);
     rs->lead_here = fmax(rs->lead_here, r->overlap_unpolished);
+    rs->lead_fit = fmax(rs->lead_fit, r->fit);
     return PKSS_OK;
 }
 

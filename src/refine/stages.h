@@ -1,10 +1,11 @@
 /* SPDX-License-Identifier: MIT
  * stages.h -- the refinement (SPEC 6 and docs/design.md §4) as named stages
  * over one state. Per search: every candidate's coarse level
- * (stage_coarse_levels), full runs for the chosen few (wants_full_run,
- * stage_full_run), the rest scored (stage_score_rest). After the searches:
- * the winner (pick_winner), the shift search (stage_shift) and the winner
- * again, then the slide search (stage_slide).
+ * (stage_coarse_levels), full runs for the chosen few (stage_full_runs:
+ * wants_full_run, stage_full_run), the rest scored (stage_score_rest).
+ * After the searches: the winner (pick_winner), starts from local shape
+ * (stage_local) and the winner again, the shift search (stage_shift) and
+ * the winner again, then the slide search (stage_slide).
  */
 #ifndef PKSS_REFINE_STAGES_H
 #define PKSS_REFINE_STAGES_H
@@ -29,6 +30,7 @@ typedef struct pkss__refinement {
     /* the leader: the best overlap fully refined (before its polish), in
      * any search and in the current one */
     double lead_overlap, lead_here;
+    double lead_fit; /* the best fit fully refined, in any search */
     pkss__basins basins; /* minima reached by the full runs */
     pkss__views v;
     double search_seconds, refine_seconds;
@@ -54,6 +56,20 @@ size_t pkss__initial_full_count(const pkss__icp_result *ir, const int *order,
  * while no refined candidate of this search covers both clouds. */
 int pkss__wants_full_run(const pkss__refinement *rs, const pkss__icp_result *ir,
                          const int *order, size_t i, size_t *n_full, double h);
+/* The full runs of candidates [base, base+kept) after their coarse levels:
+ * by coarse overlap, those pkss__wants_full_run chooses, judged in the
+ * rigid stage against lead_in (an earlier search's winner before its
+ * polish, 0 for the first) and in the scale stage against these alone;
+ * the rest scored on all points unless scored[i] (relative index). */
+pkss_status pkss__stage_full_runs(pkss__refinement *rs, size_t base, size_t kept,
+                                  double lead_in, const int *scored);
+/* Candidates from local shape where the winner covers neither cloud
+ * wholly: up to PKSS_LOCAL_STARTS poses of pkss__local_starts (*added of
+ * them, appended; scored by ss's measure at their poses), each with a
+ * coarse level, then full runs as a search's candidates get them
+ * (pkss__stage_full_runs, against lead_in). */
+pkss_status pkss__stage_local(pkss__refinement *rs, const pkss__search_setup *ss,
+                              uint64_t seed, double lead_in, size_t *added);
 /* The scale pairs of a full run from coverages f_s, f_t (otherwise when
  * neither is a part wholly on the other). */
 int pkss__part_mode(double fs, double ft, int otherwise);

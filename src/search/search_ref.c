@@ -98,6 +98,44 @@ pkss_status pkss__search_ref(pkss_context *ctx, const pkss__search_input *in,
     return st == PKSS_OK ? PKSS_OK : pkss__cancel_fail(ctx);
 }
 
+/* G_contour and G_feature (the paper's, untrimmed) of one pose: the source
+ * binned turned by R about its centroid, the template about t (Eq. 11-12
+ * at one rotation and offset). */
+static float score_one(const float *src, int n_src, const float *tgt, int n_tgt,
+                       const float *R, const float *t, const pkss__search_input *in,
+                       float *a, float *b)
+{
+    static const float I[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    const int n_cells = in->n_az * (in->n_az / 2);
+    pkss_bin_points(src, n_src, R, 0.0f, 0.0f, 0.0f, in->n_az, in->edges, a);
+    pkss_bin_points(tgt, n_tgt, I, t[0], t[1], t[2], in->n_az, in->edges, b);
+    return pkss_score_pair(a, 0, b, pkss_count_occupied(b, n_cells), in->n_az, 1.0f,
+                           0.0f, 0);
+}
+
+pkss_status pkss__score_pose(const pkss__search_input *in, const double *R,
+                             const double *t, pkss__pick *out)
+{
+    const size_t table = (size_t)in->n_az * (size_t)(in->n_az / 2) * 4;
+    float *a = pkss__malloc(2 * table * sizeof(float));
+    if (!a)
+        return PKSS_ERR_OUT_OF_MEMORY;
+    float Rf[9], tf[3];
+    for (int k = 0; k < 9; ++k)
+        Rf[k] = (float)R[k];
+    for (int d = 0; d < 3; ++d)
+        tf[d] = (float)t[d];
+    out->g_contour = score_one(in->src_pts, in->n_src, in->tgt_pts, in->n_tgt, Rf, tf,
+                               in, a, a + table);
+    out->g_feature = in->use_features
+                         ? score_one(in->src_feat, in->n_src_feat, in->tgt_feat,
+                                     in->n_tgt_feat, Rf, tf, in, a, a + table)
+                         : 0.0f;
+    out->score = out->g_contour > out->g_feature ? out->g_contour : out->g_feature;
+    pkss__free(a);
+    return PKSS_OK;
+}
+
 /* ---------------------------------------------------------- selection */
 typedef struct scored {
     float score;

@@ -428,7 +428,7 @@ void cli_verbose(const cli_run *run, const pkss_context *ctx,
     for (i = 0; i < r->n_candidates; i++) {
         pkss_candidate c;
         pkss_candidate_init(&c, sizeof c);
-        if (pkss_context_candidate(ctx, i, &c) == PKSS_OK && c.search)
+        if (pkss_context_candidate(ctx, i, &c) == PKSS_OK && c.search == 1)
             wide = 1;
     }
     fprintf(stderr,
@@ -446,10 +446,15 @@ void cli_verbose(const cli_run *run, const pkss_context *ctx,
             break;
         fprintf(stderr,
                 "  %c%2u score %.5f (contour %.5f, feature %.5f) scale "
-                "%.6g rms %.6g overlap %.4f fit %.4f %-7s rot#%u %s#%u\n",
+                "%.6g rms %.6g overlap %.4f fit %.4f %-7s ",
                 i == r->winner ? '*' : ' ', (unsigned)i, c.score,
                 c.score_contour, c.score_feature, c.scale, c.rms, c.overlap,
-                c.fit, cli_stage_name(c.stage), (unsigned)c.rotation_index,
-                c.search ? "wide" : "off", (unsigned)c.offset_index);
+                c.fit, cli_stage_name(c.stage));
+        if (c.search == 3)
+            fprintf(stderr, "local match\n");
+        else
+            fprintf(stderr, "rot#%u %s#%u\n", (unsigned)c.rotation_index,
+                    c.search == 2 ? "shift" : c.search == 1 ? "wide" : "off",
+                    (unsigned)c.offset_index);
     }
 }

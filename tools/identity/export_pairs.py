@@ -18,6 +18,19 @@ import cases as C  # noqa: E402
 import numpy as np  # noqa: E402
 
 
+def pair_items(seeds, real_seeds, cases):
+    """The pairs in manifest order: (kind, name, case, index)."""
+    items = [("s", o, c, i) for i in range(seeds) for c in cases for o in C.OBJECTS]
+    return items + [("r", p, None, i) for i in range(real_seeds) for p in C.REAL_PAIRS]
+
+
+def make_case(item, base_seed):
+    """The cases.Case of one item of pair_items."""
+    kind, name, case, i = item
+    return (C.make_synthetic(name, case, i, base_seed) if kind == "s"
+            else C.make_real(name, i, base_seed))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", required=True)
@@ -28,14 +41,13 @@ def main():
                     help="synthetic cases (cases.SYNTH_CASES, cases.HARD_CASES)")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
-    items = [("s", o, c, i) for i in range(a.seeds) for c in a.cases for o in C.OBJECTS]
-    items += [("r", p, None, i) for i in range(a.real_seeds) for p in C.REAL_PAIRS]
+    items = pair_items(a.seeds, a.real_seeds, a.cases)
     with open(os.path.join(a.out, "manifest.txt"), "w") as man:
-        for n, (kind, name, case, i) in enumerate(items):
+        for n, item in enumerate(items):
             try:
-                cs = (C.make_synthetic(name, case, i, a.base_seed) if kind == "s"
-                      else C.make_real(name, i, a.base_seed))
+                cs = make_case(item, a.base_seed)
             except (OSError, KeyError, ValueError) as e:
+                _, name, case, i = item
                 print(f"skip {name}/{case}/{i}: {e}", file=sys.stderr)
                 continue
             stem = f"p{n:05d}"

@@ -504,7 +504,10 @@ class Candidate(_Value):
     stage: str
     #: 0: the paper's offset grid; 1: the wide second search (run when the
     #: first winner covers neither cloud); 2: a shift of the winner (its
-    #: rotation and scale at another translation, docs/design.md §5)
+    #: rotation and scale at another translation, docs/design.md §5); 3: a
+    #: local-feature match where both clouds are parts (no grid indices:
+    #: ``rotation_index`` and ``offset_index`` are 2**32 - 1; its scores are
+    #: the paper's G at its start pose)
     search: int
 
     def apply(self, points: ArrayLike) -> np.ndarray:

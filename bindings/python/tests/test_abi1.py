@@ -60,7 +60,8 @@ def test_candidates_come_from_the_context():
     np.testing.assert_array_equal(win.transform, res.transform)
     assert win.fit == res.fit and win.score == res.score
     for c in res.candidates:
-        assert c.search in (0, 1, 2) and 0 <= c.offset_index < res.n_offsets
+        assert c.search in (0, 1, 2, 3)
+        assert c.search == 3 or 0 <= c.offset_index < res.n_offsets
         assert c.stage in ("search", "coarse", "stopped", "refined")
     assert res.fell_back in (True, False) and isinstance(res.note, str)
     assert res.prepare_seconds >= 0
