@@ -357,6 +357,21 @@ static pkss_status refit(const pkss__icp_view *s, const pkss__icp_view *t,
     return st;
 }
 
+/* The first `max` poses of best[0..n) that lie in no earlier one's basin. */
+static size_t distinct_poses(const hypothesis *best, size_t n, double h, size_t max,
+                             pkss__pose *out)
+{
+    size_t k = 0;
+    for (size_t b = 0; b < n && k < max; ++b) {
+        int dup = 0;
+        for (size_t j = 0; j < k && !dup; ++j)
+            dup = pkss__same_basin(&best[b].pose, &out[j], h, &pkss__start_basin);
+        if (!dup)
+            out[k++] = best[b].pose;
+    }
+    return k;
+}
+
 pkss_status pkss__local_starts(const pkss__icp_view *src_coarse,
                                const pkss__icp_view *tgt_coarse, uint64_t seed,
                                size_t max, pkss__pose *starts, size_t *n_starts)
@@ -384,16 +399,8 @@ pkss_status pkss__local_starts(const pkss__icp_view *src_coarse,
         st = refit(src_coarse, tgt_coarse, ps, pt, n, &best[b]);
     /* the refit may reorder the hypotheses or merge their basins */
     sort_hypotheses(best, n_best);
-    size_t out = 0;
-    for (size_t b = 0; b < n_best && out < max && st == PKSS_OK; ++b) {
-        int dup = 0;
-        for (size_t j = 0; j < out && !dup; ++j)
-            dup = pkss__same_basin(&best[b].pose, &starts[j], tgt_coarse->spacing,
-                                   &pkss__start_basin);
-        if (!dup)
-            starts[out++] = best[b].pose;
-    }
-    *n_starts = st == PKSS_OK ? out : 0;
+    if (st == PKSS_OK)
+        *n_starts = distinct_poses(best, n_best, tgt_coarse->spacing, max, starts);
     pkss__free(fs);
     pkss__free(ft);
     pkss__free(ps);

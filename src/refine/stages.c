@@ -289,6 +289,7 @@ static void drop_known_basins(pkss__refinement *rs, size_t base)
                                                        &pkss__start_basin);
         if (known)
             continue;
+        rs->picks[kept] = rs->picks[c];
         rs->ir[kept] = rs->ir[c];
         rs->stage[kept] = rs->stage[c];
         rs->st[kept] = rs->st[c];
@@ -356,7 +357,8 @@ pkss_status pkss__stage_full_run(pkss__refinement *rs, size_t c, int scale_known
     else
         PKSS_FORWARD(plan_scale(&rs->v, &scaled, &sched.free_scale));
     /* judged against the leader on all points in the rigid stage (the coarse
-     * level may stop mid-way), and in the scale stage against this search's */
+     * level may stop mid-way), and in the scale stage against this search's;
+     * neither stops it once it lies closer than the best refined fit */
     pkss__icp_stops stops = {PKSS_FULL_REFINE_RATIO * rs->lead_overlap, rs->lead_here,
                              &rs->basins, (int)c, rs->lead_fit};
     pkss__pose start = scaled.pose;
