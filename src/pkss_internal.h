@@ -254,6 +254,12 @@ void pkss__svd3(const double *H, double *U, double *s, double *V);
 void pkss__procrustes_rotation(const double *H, double *R);
 /* The rotation by |w| radians about w (Rodrigues). */
 void pkss__rotation_exp(const double *w, double *R);
+/* a . b and c = a x b of 3-vectors. */
+double pkss__dot3(const double *a, const double *b);
+void pkss__cross3(const double *a, const double *b, double *c);
+/* The next value of a splitmix64 stream (the seeded draws of thin.c and
+ * local_match.c). */
+uint64_t pkss__splitmix64(uint64_t *state);
 /* Solves A x = b for a symmetric positive definite n x n A (row-major;
  * overwritten by its Cholesky factor); x replaces b. Returns 0, leaving b
  * undefined, when A is not positive definite. */

@@ -134,7 +134,7 @@ static void normalize3(double *v)
     }
 }
 
-static void cross3(const double *a, const double *b, double *c)
+void pkss__cross3(const double *a, const double *b, double *c)
 {
     c[0] = a[1] * b[2] - a[2] * b[1];
     c[1] = a[2] * b[0] - a[0] * b[2];
@@ -148,7 +148,7 @@ static void orthogonal3(const double *a, double *b)
     int i = fabs(a[0]) <= fabs(a[1]) ? (fabs(a[0]) <= fabs(a[2]) ? 0 : 2)
                                      : (fabs(a[1]) <= fabs(a[2]) ? 1 : 2);
     e[i] = 1.0;
-    cross3(a, e, b);
+    pkss__cross3(a, e, b);
     normalize3(b);
 }
 
@@ -187,7 +187,7 @@ void pkss__svd3(const double *H, double *U, double *s, double *V)
     else
         orthogonal3(u[0], u[1]);
     double c[3];
-    cross3(u[0], u[1], c);
+    pkss__cross3(u[0], u[1], c);
     if (s[2] > tol) {
         /* keep u2's orientation from H v2 (may be a reflection) */
         double dot = c[0] * u[2][0] + c[1] * u[2][1] + c[2] * u[2][2];
@@ -265,4 +265,17 @@ int pkss__solve_spd(double *A, double *b, int n)
         b[i] /= A[n * i + i];
     }
     return 1;
+}
+
+double pkss__dot3(const double *a, const double *b)
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+uint64_t pkss__splitmix64(uint64_t *state)
+{
+    uint64_t z = (*state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
 }

@@ -44,14 +44,6 @@ typedef struct thin_grid {
     int complete;      /* table holds every voxel of edge h */
 } thin_grid;
 
-static uint64_t splitmix64(uint64_t *state)
-{
-    uint64_t z = (*state += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-}
-
 static inline uint64_t hash_key(uint64_t k)
 {
     k ^= k >> 33;
@@ -173,7 +165,7 @@ static double grid_frame(thin_grid *g, const double *xyz, size_t n,
     *area = 2.0 * (e[0] * e[1] + e[1] * e[2] + e[2] * e[0]);
     uint64_t rs = seed;
     for (int d = 0; d < 3; ++d)
-        g->off[d] = (double)(splitmix64(&rs) >> 11) * 0x1.0p-53;
+        g->off[d] = (double)(pkss__splitmix64(&rs) >> 11) * 0x1.0p-53;
     return extent;
 }
 

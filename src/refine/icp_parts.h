@@ -15,6 +15,11 @@ void pkss__pose_inverse_apply(const pkss__pose *T, const double *y, double *x);
 /* sum of absolute differences of s, R and t */
 double pkss__pose_change(const pkss__pose *a, const pkss__pose *b);
 double pkss__dist2(const double *a, const double *b);
+/* The least-squares similarity (Umeyama) or rigid motion (Kabsch, T->s
+ * kept) y ~ T x of pairs (xs row pi[k], ys row pj[k]), k < n, into T.
+ * Returns 0 where the scale was asked and the pairs fix none (T->s kept). */
+int pkss__similarity_fit(const double *xs, const uint32_t *pi, const double *ys,
+                         const uint32_t *pj, size_t n, int with_scale, pkss__pose *T);
 /* Least-squares similarity (Umeyama) or rigid (Kabsch, fixed s) update
  * from pairs (src pi[k], tgt pj[k]). Returns 0 if too few pairs. */
 int pkss__solve_point(const pkss__icp_view *src, const pkss__icp_view *tgt,

@@ -16,31 +16,10 @@
 
 #define N_HIST (3 * PKSS_LOCAL_BINS)
 
-/* A random stream (splitmix64) for the samples, from the call's seed. */
-static uint64_t next_random(uint64_t *state)
-{
-    uint64_t z = (*state += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-}
-
 static int bin_of(double v, double lo, double hi)
 {
     int b = (int)((v - lo) / (hi - lo) * PKSS_LOCAL_BINS);
     return b < 0 ? 0 : (b >= PKSS_LOCAL_BINS ? PKSS_LOCAL_BINS - 1 : b);
-}
-
-static double dot3(const double *a, const double *b)
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-
-static void cross3(const double *a, const double *b, double *c)
-{
-    c[0] = a[1] * b[2] - a[2] * b[1];
-    c[1] = a[2] * b[0] - a[0] * b[2];
-    c[2] = a[0] * b[1] - a[1] * b[0];
 }
 
 /* The Darboux-frame angles of point p's pair with q (Rusu's alpha, phi,
@@ -51,30 +30,30 @@ static void add_pair(const double *p, const double *np, const double *q,
                      const double *nq, float *hist)
 {
     double d[3] = {q[0] - p[0], q[1] - p[1], q[2] - p[2]};
-    double len = sqrt(dot3(d, d));
+    double len = sqrt(pkss__dot3(d, d));
     if (!(len > 0.0))
         return;
     for (int k = 0; k < 3; ++k)
         d[k] /= len;
     double u[3] = {np[0], np[1], np[2]}, n[3] = {nq[0], nq[1], nq[2]};
-    if (dot3(u, d) < 0.0)
+    if (pkss__dot3(u, d) < 0.0)
         for (int k = 0; k < 3; ++k)
             u[k] = -u[k];
-    if (dot3(u, n) < 0.0)
+    if (pkss__dot3(u, n) < 0.0)
         for (int k = 0; k < 3; ++k)
             n[k] = -n[k];
     double v[3], w[3];
-    cross3(d, u, v);
-    double lv = sqrt(dot3(v, v));
+    pkss__cross3(d, u, v);
+    double lv = sqrt(pkss__dot3(v, v));
     if (!(lv > 1e-12))
         return; /* the normal lies along the pair: no frame */
     for (int k = 0; k < 3; ++k)
         v[k] /= lv;
-    cross3(u, v, w);
-    hist[bin_of(dot3(v, n), -1.0, 1.0)] += 1.0f;
-    hist[PKSS_LOCAL_BINS + bin_of(dot3(u, d), 0.0, 1.0)] += 1.0f;
-    hist[2 * PKSS_LOCAL_BINS + bin_of(atan2(dot3(w, n), dot3(u, n)), -0.5 * PKSS_PI,
-                                      0.5 * PKSS_PI)] += 1.0f;
+    pkss__cross3(u, v, w);
+    hist[bin_of(pkss__dot3(v, n), -1.0, 1.0)] += 1.0f;
+    hist[PKSS_LOCAL_BINS + bin_of(pkss__dot3(u, d), 0.0, 1.0)] += 1.0f;
+    double theta = atan2(pkss__dot3(w, n), pkss__dot3(u, n));
+    hist[2 * PKSS_LOCAL_BINS + bin_of(theta, -0.5 * PKSS_PI, 0.5 * PKSS_PI)] += 1.0f;
 }
 
 static void normalise(float *h)
@@ -174,41 +153,6 @@ static pkss_status match(const float *fs, size_t ms, const float *ft, size_t mt,
     return PKSS_OK;
 }
 
-/* The similarity y ~ s R x + t of n point pairs (Umeyama), rows of x, y. */
-static int similarity_fit(const double *x, const double *y, size_t n, pkss__pose *T)
-{
-    double mx[3] = {0, 0, 0}, my[3] = {0, 0, 0}, H[9] = {0}, sxx = 0.0;
-    for (size_t k = 0; k < n; ++k)
-        for (int d = 0; d < 3; ++d) {
-            mx[d] += x[3 * k + d] / (double)n;
-            my[d] += y[3 * k + d] / (double)n;
-        }
-    for (size_t k = 0; k < n; ++k) {
-        double a[3], b[3];
-        for (int d = 0; d < 3; ++d) {
-            a[d] = x[3 * k + d] - mx[d];
-            b[d] = y[3 * k + d] - my[d];
-        }
-        for (int r = 0; r < 3; ++r)
-            for (int c = 0; c < 3; ++c)
-                H[3 * r + c] += a[r] * b[c];
-        sxx += dot3(a, a);
-    }
-    pkss__procrustes_rotation(H, T->R);
-    double tr = 0.0;
-    for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 3; ++c)
-            tr += T->R[3 * r + c] * H[3 * c + r];
-    if (!(sxx > 0.0 && tr > 0.0))
-        return 0;
-    T->s = tr / sxx;
-    double Rm[3];
-    pkss__mat3_apply(T->R, mx, Rm);
-    for (int d = 0; d < 3; ++d)
-        T->t[d] = my[d] - T->s * Rm[d];
-    return 1;
-}
-
 /* Whether three matches can come from one similarity: the target's edge
  * lengths are the source's times one factor, within PKSS_LOCAL_EDGE_TOL,
  * no edge is shorter than PKSS_LOCAL_MIN_EDGE spacings (a degenerate
@@ -223,7 +167,7 @@ static int consistent(const double *x, const double *y, double h)
             ex[d] = x[3 * b + d] - x[3 * a + d];
             ey[d] = y[3 * b + d] - y[3 * a + d];
         }
-        double lx = sqrt(dot3(ex, ex)), ly = sqrt(dot3(ey, ey));
+        double lx = sqrt(pkss__dot3(ex, ex)), ly = sqrt(pkss__dot3(ey, ey));
         if (lx < PKSS_LOCAL_MIN_EDGE * h || ly < PKSS_LOCAL_MIN_EDGE * h)
             return 0;
         double r = ly / lx;
@@ -234,22 +178,17 @@ static int consistent(const double *x, const double *y, double h)
            hi <= PKSS_LOCAL_SCALE_MAX;
 }
 
-/* Matches k whose source point T brings within reach of its target point. */
+/* Matches k whose source point T brings within reach of its target point
+ * (their indices into in, if not NULL); returns how many. */
 static size_t count_inliers(const pkss__icp_view *s, const pkss__icp_view *t,
                             const uint32_t *ps, const uint32_t *pt, size_t n,
                             const pkss__pose *T, double reach2, uint32_t *in)
 {
     size_t c = 0;
     for (size_t k = 0; k < n; ++k) {
-        const double *x = s->pts + 3 * (size_t)ps[k], *y = t->pts + 3 * (size_t)pt[k];
-        double Rx[3];
-        pkss__mat3_apply(T->R, x, Rx);
-        double e2 = 0.0;
-        for (int d = 0; d < 3; ++d) {
-            double e = T->s * Rx[d] + T->t[d] - y[d];
-            e2 += e * e;
-        }
-        if (e2 <= reach2) {
+        double y[3];
+        pkss__pose_apply(T, s->pts + 3 * (size_t)ps[k], y);
+        if (pkss__dist2(y, t->pts + 3 * (size_t)pt[k]) <= reach2) {
             if (in)
                 in[c] = (uint32_t)k;
             ++c;
@@ -308,7 +247,7 @@ static size_t ransac(const pkss__icp_view *s, const pkss__icp_view *t,
     for (int it = 0; it < PKSS_LOCAL_SAMPLES; ++it) {
         size_t k[3];
         for (int a = 0; a < 3; ++a)
-            k[a] = (size_t)(next_random(&rng) % n);
+            k[a] = (size_t)(pkss__splitmix64(&rng) % n);
         if (k[0] == k[1] || k[1] == k[2] || k[0] == k[2])
             continue;
         double x[9], y[9];
@@ -317,8 +256,11 @@ static size_t ransac(const pkss__icp_view *s, const pkss__icp_view *t,
                 x[3 * a + d] = s->pts[3 * (size_t)ps[k[a]] + d];
                 y[3 * a + d] = t->pts[3 * (size_t)pt[k[a]] + d];
             }
-        hypothesis hy;
-        if (!consistent(x, y, h) || !similarity_fit(x, y, 3, &hy.pose))
+        const uint32_t i3[3] = {ps[k[0]], ps[k[1]], ps[k[2]]};
+        const uint32_t j3[3] = {pt[k[0]], pt[k[1]], pt[k[2]]};
+        hypothesis hy = {.pose = {.s = 1.0}};
+        if (!consistent(x, y, h) ||
+            !pkss__similarity_fit(s->pts, i3, t->pts, j3, 3, 1, &hy.pose))
             continue;
         hy.inliers = count_inliers(s, t, ps, pt, n, &hy.pose, reach2, NULL);
         if (hy.inliers >= PKSS_LOCAL_MIN_INLIERS)
@@ -333,28 +275,26 @@ static pkss_status refit(const pkss__icp_view *s, const pkss__icp_view *t,
                          hypothesis *hy)
 {
     const double reach2 = pow(PKSS_LOCAL_REACH * t->spacing, 2);
-    uint32_t *in = pkss__malloc(n * sizeof *in);
-    double *x = pkss__malloc(n * 3 * sizeof *x), *y = pkss__malloc(n * 3 * sizeof *y);
-    pkss_status st = in && x && y ? PKSS_OK : PKSS_ERR_OUT_OF_MEMORY;
-    for (int round = 0; round < 2 && st == PKSS_OK; ++round) {
+    uint32_t *in = pkss__malloc(3 * n * sizeof *in);
+    if (!in)
+        return PKSS_ERR_OUT_OF_MEMORY;
+    uint32_t *is = in + n, *it = in + 2 * n; /* the inliers' points */
+    for (int round = 0; round < 2; ++round) {
         size_t c = count_inliers(s, t, ps, pt, n, &hy->pose, reach2, in);
         if (c < PKSS_LOCAL_MIN_INLIERS)
             break;
-        for (size_t k = 0; k < c; ++k)
-            for (int d = 0; d < 3; ++d) {
-                x[3 * k + d] = s->pts[3 * (size_t)ps[in[k]] + d];
-                y[3 * k + d] = t->pts[3 * (size_t)pt[in[k]] + d];
-            }
+        for (size_t k = 0; k < c; ++k) {
+            is[k] = ps[in[k]];
+            it[k] = pt[in[k]];
+        }
         pkss__pose T = hy->pose;
-        if (!similarity_fit(x, y, c, &T))
+        if (!pkss__similarity_fit(s->pts, is, t->pts, it, c, 1, &T))
             break;
         hy->pose = T;
         hy->inliers = c;
     }
     pkss__free(in);
-    pkss__free(x);
-    pkss__free(y);
-    return st;
+    return PKSS_OK;
 }
 
 /* The first `max` poses of best[0..n) that lie in no earlier one's basin. */

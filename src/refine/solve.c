@@ -31,19 +31,14 @@ double pkss__dist2(const double *a, const double *b)
     return dx * dx + dy * dy + dz * dz;
 }
 
-/* Least-squares similarity (Umeyama) or rigid (Kabsch, fixed s) update
- * from pairs (src i, tgt j). Returns 0 if too few pairs. */
-int pkss__solve_point(const pkss__icp_view *src, const pkss__icp_view *tgt,
-                 const uint32_t *pi, const uint32_t *pj, size_t n,
-                 int with_scale, pkss__pose *T)
+int pkss__similarity_fit(const double *xs, const uint32_t *pi, const double *ys,
+                         const uint32_t *pj, size_t n, int with_scale, pkss__pose *T)
 {
-    if (n < ICP_MIN_PAIRS)
-        return 0;
     double mx[3] = {0, 0, 0}, my[3] = {0, 0, 0};
     for (size_t k = 0; k < n; ++k)
         for (int d = 0; d < 3; ++d) {
-            mx[d] += src->pts[3 * (size_t)pi[k] + d];
-            my[d] += tgt->pts[3 * (size_t)pj[k] + d];
+            mx[d] += xs[3 * (size_t)pi[k] + d];
+            my[d] += ys[3 * (size_t)pj[k] + d];
         }
     for (int d = 0; d < 3; ++d) {
         mx[d] /= (double)n;
@@ -51,8 +46,8 @@ int pkss__solve_point(const pkss__icp_view *src, const pkss__icp_view *tgt,
     }
     double H[9] = {0}, sxx = 0.0;
     for (size_t k = 0; k < n; ++k) {
-        const double *x = src->pts + 3 * (size_t)pi[k];
-        const double *y = tgt->pts + 3 * (size_t)pj[k];
+        const double *x = xs + 3 * (size_t)pi[k];
+        const double *y = ys + 3 * (size_t)pj[k];
         double a[3] = {x[0] - mx[0], x[1] - mx[1], x[2] - mx[2]};
         double b[3] = {y[0] - my[0], y[1] - my[1], y[2] - my[2]};
         for (int r = 0; r < 3; ++r)
@@ -63,13 +58,15 @@ int pkss__solve_point(const pkss__icp_view *src, const pkss__icp_view *tgt,
     double R[9];
     pkss__procrustes_rotation(H, R);
     double s = T->s;
+    int fitted = !with_scale;
     if (with_scale) {
         /* s = tr(R H) / sum |x - mx|^2 (Umeyama) */
         double tr = 0.0;
         for (int r = 0; r < 3; ++r)
             for (int c = 0; c < 3; ++c)
                 tr += R[3 * r + c] * H[3 * c + r];
-        if (sxx > 0.0 && tr > 0.0)
+        fitted = sxx > 0.0 && tr > 0.0;
+        if (fitted)
             s = tr / sxx;
     }
     double Rm[3];
@@ -78,6 +75,16 @@ int pkss__solve_point(const pkss__icp_view *src, const pkss__icp_view *tgt,
     T->s = s;
     for (int d = 0; d < 3; ++d)
         T->t[d] = my[d] - s * Rm[d];
+    return fitted;
+}
+
+int pkss__solve_point(const pkss__icp_view *src, const pkss__icp_view *tgt,
+                 const uint32_t *pi, const uint32_t *pj, size_t n,
+                 int with_scale, pkss__pose *T)
+{
+    if (n < ICP_MIN_PAIRS)
+        return 0;
+    pkss__similarity_fit(src->pts, pi, tgt->pts, pj, n, with_scale, T);
     return 1;
 }
 
