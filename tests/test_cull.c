@@ -408,6 +408,63 @@ static void test_flat_cloud_is_kept(void **state)
     free(x);
 }
 
+/* A LiDAR-like view of a flat box (its top and one side) with 20 % of
+ * outliers inside it, as given and turned: turned, the coordinate box
+ * gains empty corners, and the background's fill must still be found. */
+static size_t flat_view_case(const double *R, size_t n_surf, size_t n_out,
+                             size_t *surf_kept)
+{
+    const double a = 6.0, h = 1.5;
+    size_t n = n_surf + n_out;
+    double *x = malloc(n * 3 * sizeof(double));
+    unsigned char *label = malloc(n);
+    pkss_test_rng rng = {g_seed + 11};
+    size_t n_top = (size_t)((double)n_surf * a / (a + h)); /* by area */
+    for (size_t i = 0; i < n; ++i) {
+        double p[3], u = pkss_test_uniform(&rng), v = pkss_test_uniform(&rng);
+        if (i < n_top) {
+            p[0] = a * u, p[1] = a * v, p[2] = h;
+        } else if (i < n_surf) {
+            p[0] = a, p[1] = a * u, p[2] = h * v;
+        } else {
+            p[0] = a * u, p[1] = a * v, p[2] = h * pkss_test_uniform(&rng);
+        }
+        pkss__mat3_apply(R, p, x + 3 * i);
+        label[i] = i < n_surf ? SURFACE : OUTLIER;
+    }
+    cull_result r = run_cull(x, n, label, NULL);
+    size_t out_left = 0;
+    *surf_kept = 0;
+    for (size_t i = 0; i < r.after_stat; ++i) {
+        if (label[i] == SURFACE)
+            ++*surf_kept;
+        else
+            ++out_left;
+    }
+    free(label);
+    free(x);
+    return out_left;
+}
+
+static void test_turned_flat_cloud_loses_its_outliers(void **state)
+{
+    (void)state;
+    const size_t n_surf = 10000, n_out = 2000;
+    const double w[3] = {0.6, 0.7, 0.3};
+    double R[2][9];
+    pkss__mat3_identity(R[0]);
+    pkss__rotation_exp(w, R[1]);
+    for (int t = 0; t < 2; ++t) {
+        size_t kept;
+        size_t left = flat_view_case(R[t], n_surf, n_out, &kept);
+        print_message("[%s] flat box view, %s: %zu/%zu outliers left, surface "
+                      "kept %zu/%zu\n", PROGRAM, t ? "turned" : "as given", left,
+                      n_out, kept, n_surf);
+        assert_true(left <= n_out / 5);
+        assert_true(kept >= n_surf - n_surf / 100);
+    }
+}
+
 /* The chef statue (5k points, compact), thick with noise: its surface reads
  * barely denser than its box's mean fill, and must not be taken for its own
  * background (cull.c, stands_out). */
@@ -599,6 +656,7 @@ int main(void)
         cmocka_unit_test(test_grids_keep_everything),
         cmocka_unit_test(test_flat_cloud_is_kept),
         cmocka_unit_test(test_noisy_small_object_is_kept),
+        cmocka_unit_test(test_turned_flat_cloud_loses_its_outliers),
         cmocka_unit_test(test_duplicate_stack),
         cmocka_unit_test(test_determinism),
         cmocka_unit_test(test_shared_graph),

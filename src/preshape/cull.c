@@ -46,6 +46,9 @@
  * The sparse clause's N/V is raised to 4x the density of a uniform
  * background when the cloud has one (background_fill; docs/tuning.md):
  * at 20 % box outliers N/V is their own fill, and they pass 0.1 N/V.
+ * That fill is counted in the quantile box along the cloud's principal
+ * axes: a turned flat cloud's coordinate box has empty corners, so its
+ * outliers' count never nears lambda V there.
  */
 #include "pkss_internal.h"
 
@@ -253,15 +256,47 @@ static double select_value(double *v, size_t n, size_t r)
     return v[r];
 }
 
-/* Points per unit volume of the per-axis quantile box (0: undefined). */
-static double background_density(const double *xyz, size_t n, double *buf)
+/* Principal axes of the cloud as the columns of V (row-major); the
+ * coordinate axes if the covariance is not finite. */
+static void principal_axes(const double *xyz, size_t n, double *V)
+{
+    double c[3] = {0.0, 0.0, 0.0}, S[9] = {0}, w[3];
+    for (size_t i = 0; i < n; ++i)
+        for (int d = 0; d < 3; ++d)
+            c[d] += xyz[3 * i + d];
+    for (int d = 0; d < 3; ++d)
+        c[d] /= (double)n;
+    for (size_t i = 0; i < n; ++i) {
+        const double *p = xyz + 3 * i;
+        double e[3] = {p[0] - c[0], p[1] - c[1], p[2] - c[2]};
+        for (int r = 0; r < 3; ++r)
+            for (int s = r; s < 3; ++s)
+                S[3 * r + s] += e[r] * e[s] / (double)n;
+    }
+    S[3] = S[1];
+    S[6] = S[2];
+    S[7] = S[5];
+    pkss__eig_sym3(S, w, V);
+    for (int a = 0; a < 9; ++a)
+        if (!isfinite(V[a])) {
+            pkss__mat3_identity(V);
+            return;
+        }
+}
+
+/* Points per unit volume of the quantile box along the columns of A
+ * (0: undefined). */
+static double box_density(const double *xyz, size_t n, const double *A,
+                          double *buf)
 {
     double side[3], longest = 0.0;
     size_t rlo = (size_t)floor(STAT_QUANTILE * (double)(n - 1));
     size_t rhi = (size_t)ceil((1.0 - STAT_QUANTILE) * (double)(n - 1));
     for (int d = 0; d < 3; ++d) {
-        for (size_t i = 0; i < n; ++i)
-            buf[i] = xyz[3 * i + d];
+        for (size_t i = 0; i < n; ++i) {
+            const double *p = xyz + 3 * i;
+            buf[i] = p[0] * A[d] + p[1] * A[3 + d] + p[2] * A[6 + d];
+        }
         double qlo = select_value(buf, n, rlo);
         double qhi = select_value(buf, n, rhi);
         side[d] = qhi - qlo;
@@ -380,8 +415,16 @@ pkss_status pkss__cull_stat(const double *xyz, size_t n, unsigned char *keep,
         return st;
     }
 
-    double nv = background_density(xyz, n, dm);
-    double sparse = fmax(STAT_SPARSE * nv, STAT_BG_KAPPA * background_fill(d2, n, k, nv, dm));
+    /* The SPEC's N/V uses the coordinate box; the background's fill is
+     * judged in the principal box, which a turned flat cloud does not
+     * inflate with empty corners that its outliers' count cannot fill. */
+    double I[9], P[9];
+    pkss__mat3_identity(I);
+    principal_axes(xyz, n, P);
+    double nv = box_density(xyz, n, I, dm);
+    double nv_fill = box_density(xyz, n, P, dm);
+    double sparse = fmax(STAT_SPARSE * nv,
+                         STAT_BG_KAPPA * background_fill(d2, n, k, nv_fill, dm));
     double r3_max = sparse > 0.0 ? r3_of_density(k, sparse) : HUGE_VAL; /* rho_i < sparse */
 
     for (size_t i = 0; i < n; ++i) {
