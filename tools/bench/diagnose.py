@@ -15,17 +15,35 @@ from __future__ import annotations
 import argparse
 import csv
 import os
+import re
 import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 
 
+def run_seed(results_md):
+    """The base seed of the run.py command recorded in results.md's header."""
+    try:
+        with open(results_md, encoding="utf-8") as f:
+            for line in f:
+                if line.startswith("- command:"):
+                    m = re.search(r"--seed (\d+)", line)
+                    return int(m.group(1)) if m else 0
+    except OSError:
+        pass
+    return 0
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--out", default="bench-out")
-    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--seed", type=int, default=None,
+                    help="the run's base seed (default: the --seed of the command "
+                         "in OUT/results.md, else run.py's default 0)")
     args = ap.parse_args()
+    if args.seed is None:
+        args.seed = run_seed(os.path.join(args.out, "results.md"))
     import numpy as np
     import pkss
 

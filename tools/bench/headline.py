@@ -75,18 +75,20 @@ def table(runs):
 
 
 def intro(out_dirs, runs, with_hard):
+    stamps = [stamp(os.path.join(d, "results.md")) for d in out_dirs]
+    machines = [s.get("machine", "?") for s in stamps]
+    one_machine = len(set(machines)) == 1
     parts = []
-    for d, (rows, k) in zip(out_dirs, runs):
-        s = stamp(os.path.join(d, "results.md"))
+    for s, m_, (rows, k) in zip(stamps, machines, runs):
         n_pairs = len({r["case_id"] for r in rows})
         peers = [short_name(m) for m in report.method_order(rows) if m not in ("pkss", "identity")]
         parts.append(f"- run {k}: {n_pairs} pairs, pkss against {', '.join(peers)}; "
-                     f"{s.get('date', '?')[:10]}, commit {s.get('commit', '?')}; "
-                     f"{s.get('command', '?')}")
-        machine = s.get("machine", "?")
+                     f"{s.get('date', '?')[:10]}, commit {s.get('commit', '?')}"
+                     + ("" if one_machine else f", {m_}") + f"; {s.get('command', '?')}")
+    where = machines[0] if one_machine else "machines as listed per run"
     return "\n".join(
         [f"Measured by `tools/bench/run.py`, every method on the same pairs in each run; "
-         f"{machine}. Strict success: rotation < 5°, translation < 2 % of the diameter, "
+         f"{where}. Strict success: rotation < 5°, translation < 2 % of the diameter, "
          "scale < 2 %, or a pose the shape's symmetry makes equivalent."
          + (f" The rows from {HARD_CASES[0][0]} on are the harder families of "
             "`tools/bench/README.md`." if with_hard else ""), ""] + parts)
