@@ -11,6 +11,7 @@
 #include "support.h"
 
 #include "refine/icp_parts.h"
+#include "refine/work_counts.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -165,6 +166,55 @@ static void test_tiny_clouds(void **state)
     walk(&r, 1, 5, 1);
 }
 
+/* A PKSS_COUNT_WORK build counts every lookup, and how each was answered:
+ * a first pass queries the tree for every point, a pass at the same pose
+ * answers all from memory, a work without memory queries once per point. */
+static void test_work_counts(void **state)
+{
+    (void)state;
+#ifndef PKSS_COUNT_WORK
+    skip(); /* counted in the sanitizer build (tools/run-tests.sh) */
+#else
+    pkss_test_rng r = {g_seed + 3};
+    const size_t ns = 500, nt = 600;
+    side src, tgt;
+    side_make(&src, make_sheet(&r, ns, 0), ns);
+    side_make(&tgt, make_sheet(&r, nt, 0), nt);
+    pkss__icp_work memo, fresh;
+    assert_true(pkss__work_alloc(&memo, ns, nt, 1));
+    assert_true(pkss__work_alloc(&fresh, ns, nt, 0));
+    pkss__pose T;
+    pkss__mat3_identity(T.R);
+    T.s = 1.0;
+    T.t[0] = 0.01;
+    T.t[1] = T.t[2] = 0.0;
+    const double gate = 6.0 * tgt.view.spacing;
+    unsigned long n[PKSS_WORK_COUNTS];
+    pkss__work_counts(n); /* from zero */
+    pkss__correspond(&src.view, &tgt.view, &T, gate, &memo);
+    pkss__work_counts(n);
+    assert_int_equal(n[PKSS_WORK_LOOKUPS], ns + nt);
+    assert_int_equal(n[PKSS_WORK_FIRST], ns + nt);
+    assert_int_equal(n[PKSS_WORK_MOVED] + n[PKSS_WORK_SINGLE], 0);
+    pkss__correspond(&src.view, &tgt.view, &T, gate, &memo);
+    pkss__work_counts(n);
+    assert_int_equal(n[PKSS_WORK_LOOKUPS], ns + nt);
+    assert_int_equal(n[PKSS_WORK_FIRST] + n[PKSS_WORK_MOVED] + n[PKSS_WORK_SINGLE], 0);
+    T.t[0] += 20.0 * tgt.view.spacing; /* far beyond every margin */
+    pkss__correspond(&src.view, &tgt.view, &T, gate, &memo);
+    pkss__work_counts(n);
+    assert_int_equal(n[PKSS_WORK_MOVED], ns + nt);
+    pkss__correspond(&src.view, &tgt.view, &T, gate, &fresh);
+    pkss__work_counts(n);
+    assert_int_equal(n[PKSS_WORK_SINGLE], ns + nt);
+    assert_int_equal(n[PKSS_WORK_LOOKUPS], ns + nt);
+    pkss__work_free(&memo);
+    pkss__work_free(&fresh);
+    side_free(&src);
+    side_free(&tgt);
+#endif
+}
+
 int main(void)
 {
     g_seed = pkss_test_seed(PROGRAM, 20261202);
@@ -172,6 +222,7 @@ int main(void)
         cmocka_unit_test(test_remembered_answers_equal_fresh_queries),
         cmocka_unit_test(test_remembered_answers_keep_ties),
         cmocka_unit_test(test_tiny_clouds),
+        cmocka_unit_test(test_work_counts),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

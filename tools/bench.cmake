@@ -25,6 +25,16 @@ if(TARGET pkss_static AND EXISTS "${CMAKE_CURRENT_LIST_DIR}/confidence/conf_dump
     C_STANDARD 11 C_STANDARD_REQUIRED ON C_EXTENSIONS OFF)
 endif()
 
+# --- pkss_count (pkss_dump with the ICP's lookups counted, in a
+# PKSS_COUNT_WORK build; a developer tool) ---
+if(TARGET pkss_static AND PKSS_COUNT_WORK AND EXISTS "${CMAKE_CURRENT_LIST_DIR}/identity/pkss_count.c")
+  add_executable(pkss_count "${CMAKE_CURRENT_LIST_DIR}/identity/pkss_count.c")
+  target_link_libraries(pkss_count PRIVATE pkss_static m)
+  target_include_directories(pkss_count PRIVATE "${PROJECT_SOURCE_DIR}/src/refine")
+  set_target_properties(pkss_count PROPERTIES
+    C_STANDARD 11 C_STANDARD_REQUIRED ON C_EXTENSIONS OFF)
+endif()
+
 # --- bench_thin (voxel thinning of huge clouds, SPEC 2.1; a developer tool) ---
 if(TARGET pkss_static)
   add_executable(bench_thin "${CMAKE_CURRENT_LIST_DIR}/bench_thin.c")

@@ -8,7 +8,7 @@
 #      CMake project, a pkg-config build, the add_subdirectory case and the
 #      Rust example (examples/rust, when cargo is on PATH) (tests/package);
 #   3. an AddressSanitizer + UndefinedBehaviorSanitizer build running the
-#      same C tests;
+#      same C tests, with the work counters on (PKSS_COUNT_WORK);
 #   4. a ThreadSanitizer build running the tests that register through every
 #      threaded path (pre-processing, candidates, correspondences, cancel);
 #   5. the Python package installed with pip into a venv, and its pytest
@@ -37,7 +37,7 @@ JOBS=$JOBS bash tests/package/run.sh build build/prefix build/package
 
 echo "== [3/6] sanitizer build (ASan + UBSan) + ctest"
 cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPKSS_SANITIZE=ON \
-      -DPKSS_WERROR=$WERROR >/dev/null
+      -DPKSS_COUNT_WORK=ON -DPKSS_WERROR=$WERROR >/dev/null
 cmake --build build-asan -j"$JOBS"
 # PoCL and the OpenCL ICD loader keep process-lifetime allocations that
 # LeakSanitizer reports; only those are suppressed (tests/lsan.supp).

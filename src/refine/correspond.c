@@ -5,9 +5,26 @@
  * with the deviation in docs/design.md).
  */
 #include "refine/icp_parts.h"
+#include "refine/work_counts.h"
 
 #include <math.h>
 #include <string.h>
+
+#ifdef PKSS_COUNT_WORK
+#include <stdatomic.h>
+/* The work of the lookups below, counted (CMake option PKSS_COUNT_WORK):
+ * time on a shared machine is noisy, these counts are not. */
+static atomic_ulong work_counts[PKSS_WORK_COUNTS];
+#define COUNT(k) atomic_fetch_add_explicit(&work_counts[k], 1, memory_order_relaxed)
+
+void pkss__work_counts(unsigned long out[PKSS_WORK_COUNTS])
+{
+    for (int k = 0; k < PKSS_WORK_COUNTS; ++k)
+        out[k] = atomic_exchange_explicit(&work_counts[k], 0, memory_order_relaxed);
+}
+#else
+#define COUNT(k) ((void)0)
+#endif
 
 /* The nearest point of tree (points pts) to q within sqrt(g2), exactly as
  * pkss__kdtree_nearest answers it (UINT32_MAX and *d2 = g2 if none). A
@@ -21,8 +38,11 @@ static uint32_t nearest_memo(const pkss__kdtree *tree, const double *pts,
                              size_t k, double *d2)
 {
     enum { KEEP = ICP_MEMO_K - 1 };
-    if (!m->lb) /* a single query: nothing to remember */
+    COUNT(PKSS_WORK_LOOKUPS);
+    if (!m->lb) { /* a single query: nothing to remember */
+        COUNT(PKSS_WORK_SINGLE);
         return pkss__kdtree_nearest(tree, q, g2, d2);
+    }
     double *q0 = m->q0 + 3 * k;
     uint32_t *near = m->near + KEEP * k;
     if (m->lb[k] >= 0.0) {
@@ -44,6 +64,7 @@ static uint32_t nearest_memo(const pkss__kdtree *tree, const double *pts,
             return bd < g2 ? best : UINT32_MAX;
         }
     }
+    COUNT(m->lb[k] < 0.0 ? PKSS_WORK_FIRST : PKSS_WORK_MOVED);
     uint32_t idx[ICP_MEMO_K];
     double dd[ICP_MEMO_K];
     size_t got = pkss__kdtree_knn(tree, q, ICP_MEMO_K, SIZE_MAX, idx, dd);

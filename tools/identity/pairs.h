@@ -37,6 +37,16 @@ static double *pairs_load(const char *dir, const char *name, size_t *n)
     return xyz;
 }
 
+/* pkss_dump's line: the pair's id, status, the 16 doubles of its transform
+ * in hex (%a) and its registration time (score_dump.py reads it). */
+static inline void pairs_print(const char *id, pkss_status st, const pkss_result *res)
+{
+    printf("%s %s", id, pkss_status_name(st));
+    for (int k = 0; k < 16; ++k)
+        printf(" %a", st == PKSS_OK ? res->T_target_source[k] : 0.0);
+    printf(" %.4f\n", st == PKSS_OK ? res->timings.total : 0.0);
+}
+
 /* main() of a dumper: TOOL DIR [reference|opencl]. */
 static int pairs_run(int argc, char **argv, const char *tool, pairs_report_fn report)
 {

@@ -11,10 +11,7 @@ static void report(const char *id, pkss_status st, const pkss_result *res,
                    pkss_context *ctx)
 {
     (void)ctx;
-    printf("%s %s", id, pkss_status_name(st));
-    for (int k = 0; k < 16; ++k)
-        printf(" %a", st == PKSS_OK ? res->T_target_source[k] : 0.0);
-    printf(" %.4f\n", st == PKSS_OK ? res->timings.total : 0.0);
+    pairs_print(id, st, res);
 }
 
 int main(int argc, char **argv)
