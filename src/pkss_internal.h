@@ -188,6 +188,9 @@ size_t pkss__kdtree_knn(const pkss__kdtree *tree, const double q[3], size_t k,
 /* Nearest neighbour within sqrt(max_d2); returns index or UINT32_MAX. */
 uint32_t pkss__kdtree_nearest(const pkss__kdtree *tree, const double q[3],
                               double max_d2, double *d2);
+/* Whether a point lies within sqrt(max_d2) of q (strictly): the same answer
+ * as pkss__kdtree_nearest(tree, q, max_d2, NULL) != UINT32_MAX, sooner. */
+int pkss__kdtree_any_within(const pkss__kdtree *tree, const double q[3], double max_d2);
 /* kNN of every point of the tree itself (self excluded): idx/d2 are n*k.
  * xyz must be the array the tree was built from (n = its size); the tree's
  * own copy of the points is read. */

@@ -158,6 +158,12 @@
 #define PKSS_SHIFT_RANGE 0.25
 #define PKSS_SHIFT_TRIALS 3
 #define PKSS_SHIFT_GAIN 0.05
+/* the vote's blocks of template points: 4 cells a side (a source point's
+ * reach spans ~4 of them each way); the grid's coarsening keeps them to
+ * 17 per axis, the cap of 32 only bounds memory; they order the work, the
+ * votes are the same */
+#define PKSS_SHIFT_BLOCK 4.0
+#define PKSS_SHIFT_MAX_BLOCKS 32.0
 
 /* local-feature starts where both clouds are parts (local_match.c): FPFH
  * over the 16 nearest coarse points (~2 coarse spacings, then twice that

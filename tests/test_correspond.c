@@ -142,6 +142,45 @@ static void walk(pkss_test_rng *r, int ties, size_t ns, size_t nt)
     side_free(&tgt);
 }
 
+/* pkss__cover_within gives the coverages of a correspond() at the same
+ * gate, bit for bit, at poses near and far, with a scale, with ties, and
+ * at gates from below a spacing to several. */
+static void test_cover_within_equals_correspond(void **state)
+{
+    (void)state;
+    pkss_test_rng r = {g_seed + 7};
+    for (int ties = 0; ties <= 1; ++ties) {
+        side src, tgt;
+        side_make(&src, make_sheet(&r, 1500, ties), 1500);
+        side_make(&tgt, make_sheet(&r, 1800, ties), 1800);
+        const double h = tgt.view.spacing;
+        pkss__icp_work w;
+        assert_true(pkss__work_alloc(&w, 1500, 1800, 0));
+        pkss__pose T;
+        pkss__mat3_identity(T.R);
+        T.s = 1.0;
+        T.t[0] = T.t[1] = T.t[2] = 0.0;
+        double lo = 1.0, hi = 0.0;
+        for (int step = 0; step < 40; ++step) {
+            nudge(&r, 0.05, 0.5 * h, 0.02, &T);
+            double dist = h * (0.5 + 0.25 * (step % 12));
+            double want[2], got[2];
+            pkss__correspond(&src.view, &tgt.view, &T, dist, &w);
+            pkss__coverage_from_pairs(&src.view, &tgt.view, &T, dist, &w, want);
+            pkss__cover_within(&src.view, &tgt.view, &T, dist, got);
+            if (got[0] != want[0] || got[1] != want[1])
+                fail_msg("step %d (ties %d): cover (%.17g, %.17g), correspond says "
+                         "(%.17g, %.17g)", step, ties, got[0], got[1], want[0], want[1]);
+            lo = fmin(lo, fmin(got[0], got[1]));
+            hi = fmax(hi, fmax(got[0], got[1]));
+        }
+        assert_true(lo < 0.9 && hi > 0.5); /* the walk met partial coverages */
+        pkss__work_free(&w);
+        side_free(&src);
+        side_free(&tgt);
+    }
+}
+
 static void test_remembered_answers_equal_fresh_queries(void **state)
 {
     (void)state;
@@ -220,6 +259,7 @@ int main(void)
     g_seed = pkss_test_seed(PROGRAM, 20261202);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_remembered_answers_equal_fresh_queries),
+        cmocka_unit_test(test_cover_within_equals_correspond),
         cmocka_unit_test(test_remembered_answers_keep_ties),
         cmocka_unit_test(test_tiny_clouds),
         cmocka_unit_test(test_work_counts),

@@ -367,6 +367,50 @@ static void test_nearest(void **state)
     }
 }
 
+/* pkss__kdtree_any_within answers "is the nearest point within the
+ * radius" (strictly), as pkss__kdtree_nearest does, on every cloud kind
+ * (stacks of identical points included) and at radii around the nearest
+ * distance. */
+static void test_any_within(void **state)
+{
+    (void)state;
+    pkss_test_rng rng = {g_seed + 5};
+    for (int kind = 0; kind < N_KINDS; ++kind) {
+        size_t n = 2000;
+        double *x = make_cloud(&rng, (cloud_kind)kind, n);
+        pkss__kdtree *t = NULL;
+        assert_int_equal(pkss__kdtree_build(x, n, &t), PKSS_OK);
+        size_t inside = 0, asked = 0;
+        for (int a = 0; a < 500; ++a) {
+            size_t i = pkss_test_next(&rng) % n;
+            double q[3];
+            double scale = a % 4 == 0 ? 0.0 : (a % 4 == 1 ? 0.01 : 3.0);
+            for (int d = 0; d < 3; ++d)
+                q[d] = x[3 * i + d] + scale * pkss_test_normal(&rng);
+            double rd2 = 0.0;
+            pkss__kdtree_nearest(t, q, INFINITY, &rd2);
+            const double radii[] = {INFINITY, 2.0 * rd2 + 1e-12, rd2, 0.5 * rd2,
+                                    nextafter(rd2, INFINITY), 0.01, 0.1, 1.0};
+            for (size_t k = 0; k < sizeof radii / sizeof radii[0]; ++k) {
+                int want = pkss__kdtree_nearest(t, q, radii[k], NULL) != UINT32_MAX;
+                int got = pkss__kdtree_any_within(t, q, radii[k]);
+                if (got != want)
+                    fail_msg("any_within %s query %d radius^2 %.17g: %d, nearest says %d "
+                             "(seed %llu)", KIND_NAME[kind], a, radii[k], got, want,
+                             (unsigned long long)g_seed);
+                inside += (size_t)got;
+                ++asked;
+            }
+        }
+        /* both answers occur */
+        assert_true(inside > asked / 8 && inside < asked - asked / 8);
+        pkss__kdtree_free(t);
+        free(x);
+    }
+    double q[3] = {0, 0, 0};
+    assert_int_equal(pkss__kdtree_any_within(NULL, q, INFINITY), 0);
+}
+
 /* The skip argument excludes exactly one index, also inside a stack of
  * identical points, and indices that are not in the tree change nothing. */
 static void test_skip(void **state)
@@ -542,6 +586,7 @@ int main(void)
         cmocka_unit_test(test_knn_equals_brute_force),
         cmocka_unit_test(test_knn_all),
         cmocka_unit_test(test_nearest),
+        cmocka_unit_test(test_any_within),
         cmocka_unit_test(test_skip),
         cmocka_unit_test(test_duplicate_stack_speed),
         cmocka_unit_test(test_contract),

@@ -296,6 +296,19 @@ static void test_shift_search_finds_the_right_walls(void **state)
     assert_true(nearest <= 1.5 * cell); /* 3 h: inside a full run's 6 h gate */
     for (size_t k = 0; k < n; ++k) /* rotation and scale are the held pose's */
         assert_memory_equal(starts[k].R, held.R, sizeof held.R);
+    /* the vote split over the call's helper thread: the same starts, bit
+     * for bit (its counts are whole numbers, summed exactly) */
+    pkss__run run;
+    pkss__run_begin(ctx, &run);
+    svc.run = tv.run = &run;
+    pkss__pose shared[PKSS_SHIFT_TRIALS];
+    size_t n_shared = 0;
+    assert_int_equal(pkss__shift_starts(&svc, &tv, &held, PKSS_SHIFT_TRIALS, shared,
+                                        &n_shared), PKSS_OK);
+    pkss__run_end(ctx);
+    svc.run = tv.run = NULL;
+    assert_int_equal(n_shared, n);
+    assert_memory_equal(shared, starts, n * sizeof *starts);
     assert_int_equal(pkss__shift_starts(&svc, &tv, &truth, PKSS_SHIFT_TRIALS, starts, &n),
                      PKSS_OK);
     printf("  at the truth: %zu starts\n", n);

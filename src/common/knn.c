@@ -427,6 +427,62 @@ uint32_t pkss__kdtree_nearest(const pkss__kdtree *t, const double q[3],
     return s.best;
 }
 
+/* Whether any point lies within sqrt(max_d2) of q: the nearest-neighbour
+ * search of pkss__kdtree_nearest, with the bound held at max_d2 and ended
+ * at the first point inside it, so the answer is that of nearest != none. */
+typedef struct any_query {
+    const pkss__kdtree *t;
+    double q[3];
+    double max_d2;
+} any_query;
+
+static int any_search(const any_query *s, const kd_node *node, double mindist,
+                      double dists[3])
+{
+    const pkss__kdtree *t = s->t;
+    if (!node->left) {
+        uint32_t end = node->same ? node->begin + 1 : node->end;
+        for (uint32_t i = node->begin; i < end; ++i)
+            if (point_d2(t->pts + 3 * (size_t)i, s->q) < s->max_d2)
+                return 1;
+        return 0;
+    }
+    int dim = node->dim;
+    double diff1 = s->q[dim] - node->cut_lo;
+    double diff2 = s->q[dim] - node->cut_hi;
+    const kd_node *best, *other;
+    double cut;
+    if (diff1 + diff2 < 0.0) {
+        best = &t->nodes[node->left];
+        other = &t->nodes[node->right];
+        cut = diff2 * diff2;
+    } else {
+        best = &t->nodes[node->right];
+        other = &t->nodes[node->left];
+        cut = diff1 * diff1;
+    }
+    if (any_search(s, best, mindist, dists))
+        return 1;
+    double saved = dists[dim];
+    double md = mindist + cut - saved;
+    if (md * PKSS_KD_SLACK >= s->max_d2)
+        return 0;
+    dists[dim] = cut;
+    int found = any_search(s, other, md, dists);
+    dists[dim] = saved;
+    return found;
+}
+
+int pkss__kdtree_any_within(const pkss__kdtree *t, const double q[3], double max_d2)
+{
+    if (!t || !q || t->n == 0)
+        return 0;
+    any_query s = {t, {q[0], q[1], q[2]}, max_d2};
+    double dists[3];
+    double md = root_dist(t, q, dists);
+    return md * PKSS_KD_SLACK < max_d2 && any_search(&s, &t->nodes[0], md, dists);
+}
+
 /* Queries run in tree order (neighbouring queries touch the same nodes and
  * leaves, which keeps them in cache); results land in input order. xyz
  * must be the array the tree was built from (only checked for NULL; the

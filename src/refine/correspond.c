@@ -247,6 +247,48 @@ void pkss__coverage_from_pairs(const pkss__icp_view *src,
     cover[1] = tgt->m ? (double)bwd_hits / (double)tgt->m : 0.0;
 }
 
+typedef struct cover_job {
+    const pkss__icp_view *src, *tgt;
+    const pkss__pose *T;
+    double d2s;   /* squared distance, source units */
+    size_t hits;
+} cover_job;
+
+static void cover_backward(void *arg)
+{
+    cover_job *j = arg;
+    j->hits = 0;
+    for (size_t k = 0; k < j->tgt->m; ++k) {
+        double x[3];
+        pkss__pose_inverse_apply(j->T, j->tgt->pts + 3 * k, x);
+        j->hits += (size_t)pkss__kdtree_any_within(j->src->tree, x, j->d2s);
+    }
+}
+
+void pkss__cover_within(const pkss__icp_view *src, const pkss__icp_view *tgt,
+                        const pkss__pose *T, double dist, double cover[2])
+{
+    /* the squared bounds as correspond() forms its gates */
+    double d2 = dist * dist;
+    cover_job job = {src, tgt, T, d2 / (T->s * T->s), 0};
+    pkss__helper *helper = src->run ? &src->run->helper : NULL;
+    unsigned long ticket = 0;
+    if (src->m + tgt->m >= 2 * ICP_THREAD_MIN)
+        ticket = pkss__helper_offer(helper, cover_backward, &job);
+    size_t fwd_hits = 0;
+    for (size_t i = 0; i < src->m; ++i) {
+        double y[3];
+        pkss__pose_apply(T, src->pts + 3 * i, y);
+        fwd_hits += (size_t)pkss__kdtree_any_within(tgt->tree, y, d2);
+    }
+    if (ticket)
+        pkss__helper_wait(helper, ticket, 0.0);
+    else
+        cover_backward(&job);
+    cover[0] = src->m ? (double)fwd_hits / (double)src->m : 0.0;
+    cover[1] = tgt->m ? (double)job.hits / (double)tgt->m : 0.0;
+}
+
 /* Coverage overlap: f_s = share of source points with a template point
  * within d, f_t = share of template points with a source point within d,
  * overlap = sqrt(f_s f_t), d = 2 x the coarser of the two spacings (template

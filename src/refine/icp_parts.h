@@ -72,6 +72,11 @@ void pkss__coverage_from_pairs(const pkss__icp_view *src,
                                const pkss__icp_view *tgt, const pkss__pose *T,
                                double cg, const pkss__icp_work *w,
                                double cover[2]);
+/* Shares of each cloud within dist (template units) of the other at T, by
+ * existence queries: the shares correspond() and coverage_from_pairs()
+ * give at gate dist, without finding the nearest points. */
+void pkss__cover_within(const pkss__icp_view *src, const pkss__icp_view *tgt,
+                        const pkss__pose *T, double dist, double cover[2]);
 /* Overlap score, RMS, coverages (may be NULL) and fit (may be NULL) at T. */
 void pkss__overlap_with(const pkss__icp_view *src, const pkss__icp_view *tgt,
                         const pkss__pose *T, pkss__icp_work *w,

@@ -144,8 +144,7 @@ pkss_status pkss__icp_slide_search(const pkss__icp_view *src,
         for (int d = 0; d < 3; ++d)
             trial.t[d] += k * h * u[d];
         double f[2];
-        pkss__correspond(src, tgt, &trial, fg, &w);
-        pkss__coverage_from_pairs(src, tgt, &trial, fg, &w, f);
+        pkss__cover_within(src, tgt, &trial, fg, f);
         double fit = sqrt(f[0] * f[1]);
         if (fit > best_fit) {
             best_fit = fit;

@@ -74,37 +74,197 @@ static int grid_of(const pkss__icp_view *tgt, double *cell)
     return *cell > 0.0 ? (int)ceil(range / *cell) : 0;
 }
 
+/* The template's points grouped by block (PKSS_SHIFT_BLOCK cells a side),
+ * so that a source point visits only the blocks its reach meets, each in
+ * memory order: the votes do not depend on the order of the pairs. */
+typedef struct blocks {
+    double *pts;  /* the points, block after block */
+    size_t *start; /* block b holds pts[start[b] .. start[b + 1]) */
+    double *box;   /* block b's bounds: box[6b .. 6b+3) low, [6b+3 .. 6b+6) high */
+    int n[3];
+    double lo[3], side;
+} blocks;
+
+static int block_axis(const blocks *g, double x, int d)
+{
+    double k = floor((x - g->lo[d]) / g->side);
+    return k < 0.0 ? 0 : k >= g->n[d] ? g->n[d] - 1 : (int)k;
+}
+
+static size_t block_of(const blocks *g, const double *p)
+{
+    return ((size_t)block_axis(g, p[2], 2) * (size_t)g->n[1] +
+            (size_t)block_axis(g, p[1], 1)) * (size_t)g->n[0] +
+           (size_t)block_axis(g, p[0], 0);
+}
+
+static void blocks_free(blocks *g)
+{
+    pkss__free(g->pts);
+    pkss__free(g->start);
+    pkss__free(g->box);
+}
+
+static int blocks_build(const pkss__icp_view *tgt, double cell, blocks *g)
+{
+    double hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    g->lo[0] = g->lo[1] = g->lo[2] = HUGE_VAL;
+    for (size_t j = 0; j < tgt->m; ++j)
+        for (int d = 0; d < 3; ++d) {
+            g->lo[d] = fmin(g->lo[d], tgt->pts[3 * j + d]);
+            hi[d] = fmax(hi[d], tgt->pts[3 * j + d]);
+        }
+    g->side = PKSS_SHIFT_BLOCK * cell;
+    size_t nb = 1;
+    for (int d = 0; d < 3; ++d) {
+        g->n[d] = (int)fmin(floor((hi[d] - g->lo[d]) / g->side) + 1.0, PKSS_SHIFT_MAX_BLOCKS);
+        nb *= (size_t)g->n[d];
+    }
+    g->pts = pkss__malloc(3 * tgt->m * sizeof(double));
+    g->start = pkss__calloc(nb + 1, sizeof(size_t));
+    g->box = pkss__malloc(6 * nb * sizeof(double));
+    size_t *fill = pkss__calloc(nb, sizeof(size_t));
+    if (!g->pts || !g->start || !g->box || !fill) {
+        pkss__free(fill);
+        return 0;
+    }
+    for (size_t j = 0; j < tgt->m; ++j)
+        ++g->start[block_of(g, tgt->pts + 3 * j) + 1];
+    for (size_t b = 0; b < nb; ++b)
+        g->start[b + 1] += g->start[b];
+    for (size_t b = 0; b < nb; ++b)
+        for (int d = 0; d < 3; ++d) {
+            g->box[6 * b + d] = HUGE_VAL;
+            g->box[6 * b + 3 + d] = -HUGE_VAL;
+        }
+    for (size_t j = 0; j < tgt->m; ++j) {
+        size_t b = block_of(g, tgt->pts + 3 * j), at = g->start[b] + fill[b]++;
+        for (int d = 0; d < 3; ++d) {
+            double x = tgt->pts[3 * j + d];
+            g->pts[3 * at + d] = x;
+            g->box[6 * b + d] = fmin(g->box[6 * b + d], x);
+            g->box[6 * b + 3 + d] = fmax(g->box[6 * b + 3 + d], x);
+        }
+    }
+    pkss__free(fill);
+    return 1;
+}
+
+/* One share of the vote: source points [first, end) into acc, with its own
+ * stamps; cancellation is checked every 64 points. */
+typedef struct vote_job {
+    const double *y;
+    size_t first, end;
+    const blocks *g;
+    double cell;
+    int r;
+    pkss__run *run;
+    float *acc;
+    uint32_t *stamp;
+    pkss_status st;
+} vote_job;
+
+/* Whether every point of block b fails the reach test of q (the bounds
+ * bound every difference, as rounding is monotone), or the block is empty. */
+static int beyond_reach(const blocks *g, size_t b, const double *q, double reach)
+{
+    const double *box = g->box + 6 * b;
+    for (int d = 0; d < 3; ++d)
+        if (box[d] - q[d] >= reach || q[d] - box[3 + d] >= reach)
+            return 1;
+    return g->start[b] == g->start[b + 1];
+}
+
+/* The votes of source point i against the template points of block b. */
+static void vote_block(const vote_job *v, size_t i, size_t b, double reach, int side)
+{
+    const double *q = v->y + 3 * i;
+    if (beyond_reach(v->g, b, q, reach))
+        return;
+    const double cell = v->cell;
+    const int r = v->r;
+    for (size_t j = v->g->start[b]; j < v->g->start[b + 1]; ++j) {
+        const double *p = v->g->pts + 3 * j;
+        double dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
+        if (fabs(dx) >= reach || fabs(dy) >= reach || fabs(dz) >= reach)
+            continue;
+        int a = (int)floor(dx / cell + 0.5) + r, bb = (int)floor(dy / cell + 0.5) + r,
+            c = (int)floor(dz / cell + 0.5) + r;
+        if (a < 0 || bb < 0 || c < 0 || a >= side || bb >= side || c >= side)
+            continue;
+        size_t at = ((size_t)c * (size_t)side + (size_t)bb) * (size_t)side + (size_t)a;
+        if (v->stamp[at] != (uint32_t)i + 1) {
+            v->stamp[at] = (uint32_t)i + 1;
+            v->acc[at] += 1.0f;
+        }
+    }
+}
+
 /* Votes of the pairs (source point y_i, template point p_j) whose
  * difference p_j - y_i lies within r cells of 0, binned by cell; a source
  * point votes once per cell (stamp: the last point that voted there), so
  * a cell counts the source points that some template point meets there,
- * as an overlap does, not how dense the template is. */
+ * as an overlap does, not how dense the template is. Blocks beyond the
+ * reach are skipped with a block's margin against rounding. */
+static void vote_worker(void *arg)
+{
+    vote_job *v = arg;
+    const blocks *g = v->g;
+    const int side = 2 * v->r + 1;
+    const double reach = (v->r + 0.5) * v->cell;
+    v->st = PKSS_OK;
+    for (size_t i = v->first; i < v->end; ++i) {
+        if ((i - v->first) % 64 == 0 && pkss__tick(v->run) != PKSS_OK) {
+            v->st = PKSS_ERR_CANCELLED;
+            return;
+        }
+        const double *q = v->y + 3 * i;
+        int k0[3], k1[3];
+        for (int d = 0; d < 3; ++d) {
+            k0[d] = block_axis(g, q[d] - reach, d) - 1;
+            k1[d] = block_axis(g, q[d] + reach, d) + 1;
+            k0[d] = k0[d] < 0 ? 0 : k0[d];
+            k1[d] = k1[d] >= g->n[d] ? g->n[d] - 1 : k1[d];
+        }
+        for (int z = k0[2]; z <= k1[2]; ++z)
+            for (int yy = k0[1]; yy <= k1[1]; ++yy) {
+                size_t row = ((size_t)z * (size_t)g->n[1] + (size_t)yy) * (size_t)g->n[0];
+                for (int x = k0[0]; x <= k1[0]; ++x)
+                    vote_block(v, i, row + (size_t)x, reach, side);
+            }
+    }
+}
+
+/* The vote over the caller and the call's helper thread (half the source
+ * points each, each into its own accumulator, then summed: the counts are
+ * whole numbers, so the sum is exact and the order does not matter). */
 static pkss_status cast_votes(const double *y, size_t m, const pkss__icp_view *tgt,
                               double cell, int r, float *acc, uint32_t *stamp)
 {
-    const int side = 2 * r + 1;
-    const double reach = (r + 0.5) * cell;
-    for (size_t i = 0; i < m; ++i) {
-        if (i % 64 == 0 && pkss__tick(tgt->run) != PKSS_OK)
-            return PKSS_ERR_CANCELLED;
-        const double *q = y + 3 * i;
-        for (size_t j = 0; j < tgt->m; ++j) {
-            const double *p = tgt->pts + 3 * j;
-            double dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
-            if (fabs(dx) >= reach || fabs(dy) >= reach || fabs(dz) >= reach)
-                continue;
-            int a = (int)floor(dx / cell + 0.5) + r, b = (int)floor(dy / cell + 0.5) + r,
-                c = (int)floor(dz / cell + 0.5) + r;
-            if (a < 0 || b < 0 || c < 0 || a >= side || b >= side || c >= side)
-                continue;
-            size_t at = ((size_t)c * (size_t)side + (size_t)b) * (size_t)side + (size_t)a;
-            if (stamp[at] != (uint32_t)i + 1) {
-                stamp[at] = (uint32_t)i + 1;
-                acc[at] += 1.0f;
-            }
-        }
-    }
-    return PKSS_OK;
+    const size_t cells = (size_t)(2 * r + 1) * (size_t)(2 * r + 1) * (size_t)(2 * r + 1);
+    blocks g = {0};
+    float *acc2 = pkss__calloc(cells, sizeof(float));
+    uint32_t *stamp2 = pkss__calloc(cells, sizeof(uint32_t));
+    pkss_status st = PKSS_ERR_OUT_OF_MEMORY;
+    if (!acc2 || !stamp2 || !blocks_build(tgt, cell, &g))
+        goto done;
+    vote_job a = {y, 0, m / 2, &g, cell, r, tgt->run, acc, stamp, PKSS_OK};
+    vote_job b = {y, m / 2, m, &g, cell, r, tgt->run, acc2, stamp2, PKSS_OK};
+    pkss__helper *helper = tgt->run ? &tgt->run->helper : NULL;
+    unsigned long ticket = pkss__helper_offer(helper, vote_worker, &b);
+    vote_worker(&a);
+    if (ticket)
+        pkss__helper_wait(helper, ticket, 0.0);
+    else
+        vote_worker(&b);
+    for (size_t k = 0; k < cells; ++k)
+        acc[k] += acc2[k];
+    st = a.st != PKSS_OK ? a.st : b.st;
+done:
+    blocks_free(&g);
+    pkss__free(acc2);
+    pkss__free(stamp2);
+    return st;
 }
 
 /* The votes of cell k. */
