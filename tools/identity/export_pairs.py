@@ -6,6 +6,7 @@ seed index, as raw little-endian float64 files and a manifest.
 
     python3 tools/identity/export_pairs.py --out /tmp/pairs --seeds 3 --real-seeds 2 [--base-seed 0]
         [--cases outliers20 partial ...]   (default: the paper's cases)
+        [--objects car6 room ...]          (default: cases.OBJECTS; held-out ones too)
 
 The manifest has one line per pair: id, pkss seed, source file, target file.
 A separate --base-seed gives a validation base with other pairs."""
@@ -18,9 +19,10 @@ import cases as C  # noqa: E402
 import numpy as np  # noqa: E402
 
 
-def pair_items(seeds, real_seeds, cases):
+def pair_items(seeds, real_seeds, cases, objects=None):
     """The pairs in manifest order: (kind, name, case, index)."""
-    items = [("s", o, c, i) for i in range(seeds) for c in cases for o in C.OBJECTS]
+    objects = objects or list(C.OBJECTS)
+    items = [("s", o, c, i) for i in range(seeds) for c in cases for o in objects]
     return items + [("r", p, None, i) for i in range(real_seeds) for p in C.REAL_PAIRS]
 
 
@@ -39,9 +41,11 @@ def main():
     ap.add_argument("--base-seed", type=int, default=0)
     ap.add_argument("--cases", nargs="*", default=C.SYNTH_CASES,
                     help="synthetic cases (cases.SYNTH_CASES, cases.HARD_CASES)")
+    ap.add_argument("--objects", nargs="*",
+                    help="object models (default cases.OBJECTS; cases.HOLDOUT_OBJECTS too)")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
-    items = pair_items(a.seeds, a.real_seeds, a.cases)
+    items = pair_items(a.seeds, a.real_seeds, a.cases, a.objects)
     with open(os.path.join(a.out, "manifest.txt"), "w") as man:
         for n, item in enumerate(items):
             try:

@@ -39,9 +39,10 @@ def main():
     ap.add_argument("--real-seeds", type=int, default=2)
     ap.add_argument("--base-seed", type=int, default=0)
     ap.add_argument("--cases", nargs="*", default=C.SYNTH_CASES)
+    ap.add_argument("--objects", nargs="*", help="as given to export_pairs.py")
     a = ap.parse_args()
     evaluators = {}
-    for item in E.pair_items(a.seeds, a.real_seeds, a.cases):
+    for item in E.pair_items(a.seeds, a.real_seeds, a.cases, a.objects):
         try:
             cs = E.make_case(item, a.base_seed)
         except (OSError, KeyError, ValueError):
