@@ -271,11 +271,18 @@ static void knn_leaf(knn_query *s, const kd_node *node)
         }
         return;
     }
+    /* a point farther than a full list's last cannot enter it, whatever
+     * its index: most points of a leaf stop at this one comparison */
+    double worst = s->count == s->k ? s->d2[s->k - 1] : INFINITY;
     for (uint32_t i = node->begin; i < node->end; ++i) {
-        uint32_t ix = t->index[i];
-        if (ix == s->skip)
+        double dd = point_d2(t->pts + 3 * (size_t)i, s->q);
+        if (dd > worst)
             continue;
-        list_insert(s, point_d2(t->pts + 3 * (size_t)i, s->q), ix);
+        uint32_t ix = t->index[i];
+        if (ix == s->skip || !list_insert(s, dd, ix))
+            continue;
+        if (s->count == s->k)
+            worst = s->d2[s->k - 1];
     }
 }
 

@@ -8,29 +8,6 @@
 #include <math.h>
 #include <string.h>
 
-void pkss__pose_apply(const pkss__pose *T, const double *x, double *y)
-{
-    double r[3];
-    pkss__mat3_apply(T->R, x, r);
-    for (int d = 0; d < 3; ++d)
-        y[d] = T->s * r[d] + T->t[d];
-}
-
-/* x = R^T (y - t) / s : a template point in source pre-shape coordinates */
-void pkss__pose_inverse_apply(const pkss__pose *T, const double *y, double *x)
-{
-    double v[3] = {y[0] - T->t[0], y[1] - T->t[1], y[2] - T->t[2]};
-    for (int d = 0; d < 3; ++d)
-        x[d] = (T->R[d] * v[0] + T->R[3 + d] * v[1] + T->R[6 + d] * v[2]) / T->s;
-}
-
-/* Squared distance between two points. */
-double pkss__dist2(const double *a, const double *b)
-{
-    double dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
-    return dx * dx + dy * dy + dz * dz;
-}
-
 int pkss__similarity_fit(const double *xs, const uint32_t *pi, const double *ys,
                          const uint32_t *pj, size_t n, int with_scale, pkss__pose *T)
 {
