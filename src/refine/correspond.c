@@ -57,9 +57,13 @@ static uint32_t nearest_memo(const pkss__kdtree *tree, const double *pts,
                 best = near[i];
             }
         }
-        /* lb is infinite when the memo holds every point of the tree */
-        double slack = ICP_MEMO_SLACK * (moved + (isfinite(m->lb[k]) ? m->lb[k] : sqrt(bd)));
-        if (sqrt(bd) + slack < others || (!(bd < g2) && others - slack >= sqrt(g2))) {
+        /* lb is infinite when the memo holds every point of the tree; the
+         * slack (far above the rounding of the squares) keeps the proof
+         * sound, compared squared */
+        double o = others - ICP_MEMO_SLACK * (moved + m->lb[k]);
+        int proved = isinf(m->lb[k]) ? bd < INFINITY
+                                     : o > 0.0 && (bd < o * o || (!(bd < g2) && o * o >= g2));
+        if (proved) {
             *d2 = bd < g2 ? bd : g2;
             return bd < g2 ? best : UINT32_MAX;
         }
