@@ -243,7 +243,22 @@ pkss_status pkss__fps(const double *xyz, size_t n, size_t m, uint32_t *idx,
 void pkss__mat3_mul(const double *A, const double *B, double *C);
 void pkss__mat3_transpose(const double *A, double *T);
 void pkss__mat3_identity(double *A);
-void pkss__mat3_apply(const double *A, const double *x, double *y);
+/* y = A x (y may be x); inline, as the ICP applies it per point */
+static inline void pkss__mat3_apply(const double *A, const double *x, double *y)
+{
+    double r0 = A[0] * x[0] + A[1] * x[1] + A[2] * x[2];
+    double r1 = A[3] * x[0] + A[4] * x[1] + A[5] * x[2];
+    double r2 = A[6] * x[0] + A[7] * x[1] + A[8] * x[2];
+    y[0] = r0;
+    y[1] = r1;
+    y[2] = r2;
+}
+/* Squared distance between two 3-vectors (kd-tree and ICP hot loops). */
+static inline double pkss__dist2(const double *a, const double *b)
+{
+    double dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
+    return dx * dx + dy * dy + dz * dz;
+}
 /* R = Rz(c) * Ry(b) * Rx(a) (SPEC 5). */
 void pkss__euler_zyx(double a, double b, double c, double *R);
 /* Geodesic angle between two rotations, radians. */

@@ -34,16 +34,6 @@ void pkss__mat3_identity(double *A)
     A[0] = A[4] = A[8] = 1.0;
 }
 
-void pkss__mat3_apply(const double *A, const double *x, double *y)
-{
-    double r0 = A[0] * x[0] + A[1] * x[1] + A[2] * x[2];
-    double r1 = A[3] * x[0] + A[4] * x[1] + A[5] * x[2];
-    double r2 = A[6] * x[0] + A[7] * x[1] + A[8] * x[2];
-    y[0] = r0;
-    y[1] = r1;
-    y[2] = r2;
-}
-
 void pkss__euler_zyx(double a, double b, double c, double *R)
 {
     double ca = cos(a), sa = sin(a), cb = cos(b), sb = sin(b), cc = cos(c),

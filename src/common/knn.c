@@ -244,12 +244,6 @@ static inline int list_insert(knn_query *s, double dd, uint32_t ix)
     return 1;
 }
 
-static inline double point_d2(const double *p, const double *q)
-{
-    double dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
-    return dx * dx + dy * dy + dz * dz;
-}
-
 /* True if a cell at squared box distance md cannot improve the list. */
 static inline int prune(const knn_query *s, double md)
 {
@@ -261,7 +255,7 @@ static void knn_leaf(knn_query *s, const kd_node *node)
     const pkss__kdtree *t = s->t;
     if (node->same) {
         /* identical points in index order: stop at the first that fails */
-        double dd = point_d2(t->pts + 3 * (size_t)node->begin, s->q);
+        double dd = pkss__dist2(t->pts + 3 * (size_t)node->begin, s->q);
         for (uint32_t i = node->begin; i < node->end; ++i) {
             uint32_t ix = t->index[i];
             if (ix == s->skip)
@@ -275,7 +269,7 @@ static void knn_leaf(knn_query *s, const kd_node *node)
      * its index: most points of a leaf stop at this one comparison */
     double worst = s->count == s->k ? s->d2[s->k - 1] : INFINITY;
     for (uint32_t i = node->begin; i < node->end; ++i) {
-        double dd = point_d2(t->pts + 3 * (size_t)i, s->q);
+        double dd = pkss__dist2(t->pts + 3 * (size_t)i, s->q);
         if (dd > worst)
             continue;
         uint32_t ix = t->index[i];
@@ -379,7 +373,7 @@ static void nn_search(nn_query *s, const kd_node *node, double mindist,
     if (!node->left) {
         uint32_t end = node->same ? node->begin + 1 : node->end;
         for (uint32_t i = node->begin; i < end; ++i) {
-            double dd = point_d2(t->pts + 3 * (size_t)i, s->q);
+            double dd = pkss__dist2(t->pts + 3 * (size_t)i, s->q);
             uint32_t ix = t->index[i];
             if (dd < s->best_d2 ||
                 (dd == s->best_d2 && s->best != UINT32_MAX && ix < s->best)) {
@@ -450,7 +444,7 @@ static int any_search(const any_query *s, const kd_node *node, double mindist,
     if (!node->left) {
         uint32_t end = node->same ? node->begin + 1 : node->end;
         for (uint32_t i = node->begin; i < end; ++i)
-            if (point_d2(t->pts + 3 * (size_t)i, s->q) < s->max_d2)
+            if (pkss__dist2(t->pts + 3 * (size_t)i, s->q) < s->max_d2)
                 return 1;
         return 0;
     }

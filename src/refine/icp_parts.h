@@ -12,13 +12,10 @@
 /* (inline: the correspondences call these once per point and iteration) */
 static inline void pkss__pose_apply(const pkss__pose *T, const double *x, double *y)
 {
-    const double *R = T->R; /* y may be x */
-    double r0 = R[0] * x[0] + R[1] * x[1] + R[2] * x[2];
-    double r1 = R[3] * x[0] + R[4] * x[1] + R[5] * x[2];
-    double r2 = R[6] * x[0] + R[7] * x[1] + R[8] * x[2];
-    y[0] = T->s * r0 + T->t[0];
-    y[1] = T->s * r1 + T->t[1];
-    y[2] = T->s * r2 + T->t[2];
+    double r[3];
+    pkss__mat3_apply(T->R, x, r);
+    for (int d = 0; d < 3; ++d)
+        y[d] = T->s * r[d] + T->t[d];
 }
 /* x = R^T (y - t) / s: a template point in source pre-shape coordinates */
 static inline void pkss__pose_inverse_apply(const pkss__pose *T, const double *y, double *x)
@@ -26,11 +23,6 @@ static inline void pkss__pose_inverse_apply(const pkss__pose *T, const double *y
     double v[3] = {y[0] - T->t[0], y[1] - T->t[1], y[2] - T->t[2]};
     for (int d = 0; d < 3; ++d)
         x[d] = (T->R[d] * v[0] + T->R[3 + d] * v[1] + T->R[6 + d] * v[2]) / T->s;
-}
-static inline double pkss__dist2(const double *a, const double *b)
-{
-    double dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
-    return dx * dx + dy * dy + dz * dz;
 }
 /* sum of absolute differences of s, R and t */
 double pkss__pose_change(const pkss__pose *a, const pkss__pose *b);
