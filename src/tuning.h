@@ -120,6 +120,9 @@
 /* coarse overlap at which a candidate covers both clouds (complete
  * objects reach 0.98-1.0, partial scans stay far below) */
 #define PKSS_COARSE_COMPLETE 0.98
+/* share of one cloud within the fit distance of the other at which a refined
+ * candidate explains it wholly (the same 2 % allowance) */
+#define PKSS_EXPLAINED 0.98
 /* |f_s - f_t| above which one cloud shows a part of the other, so the
  * pre-shape scale ratio is off (SPEC 6 caveat) */
 #define PKSS_PART_OF_WHOLE 0.05

@@ -121,6 +121,12 @@ static void test_full_run_choice(void **state)
     /* a refined candidate of this search covering both clouds ends them */
     rs->lead_here = PKSS_COARSE_COMPLETE;
     assert_false(pkss__wants_full_run(rs, rs->ir, order, 2, &n_full, h));
+    /* ... and so does one on which one cloud lies wholly: a part explained */
+    rs->lead_here = 0.5;
+    rs->explained_here = PKSS_EXPLAINED - 0.01;
+    assert_true(pkss__wants_full_run(rs, rs->ir, order, 2, &n_full, h));
+    rs->explained_here = PKSS_EXPLAINED;
+    assert_false(pkss__wants_full_run(rs, rs->ir, order, 2, &n_full, h));
     free(rs);
     free(r2);
 }

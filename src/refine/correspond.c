@@ -304,13 +304,14 @@ void pkss__cover_within(const pkss__icp_view *src, const pkss__icp_view *tgt,
 void pkss__overlap_with(const pkss__icp_view *src, const pkss__icp_view *tgt,
                         const pkss__pose *T, pkss__icp_work *w,
                         double *overlap, double *rms, double *cover,
-                        double *fit)
+                        double *fit, double *fit_cover)
 {
     double cg = pkss__coverage_gate(src, tgt, T), f[2];
     pkss__correspond(src, tgt, T, cg, w);
     if (fit) {
-        pkss__coverage_from_pairs(src, tgt, T, ICP_FIT_DIST / ICP_OVERLAP_DIST * cg, w, f);
-        *fit = sqrt(f[0] * f[1]);
+        pkss__coverage_from_pairs(src, tgt, T, ICP_FIT_DIST / ICP_OVERLAP_DIST * cg, w,
+                                  fit_cover);
+        *fit = sqrt(fit_cover[0] * fit_cover[1]);
     }
     pkss__coverage_from_pairs(src, tgt, T, cg, w, f);
     double d2max = 0.0, ss = 0.0;
@@ -345,13 +346,14 @@ pkss_status pkss__icp_overlap(const pkss__icp_view *src,
                               double *rms, double *fit)
 {
     pkss__icp_work w;
+    double fit_cover[2];
     *overlap = 0.0;
     *rms = 0.0;
     if (fit)
         *fit = 0.0;
     if (!pkss__work_alloc(&w, src->m, tgt->m, 0))
         return PKSS_ERR_OUT_OF_MEMORY;
-    pkss__overlap_with(src, tgt, pose, &w, overlap, rms, NULL, fit);
+    pkss__overlap_with(src, tgt, pose, &w, overlap, rms, NULL, fit, fit ? fit_cover : NULL);
     pkss__work_free(&w);
     return PKSS_OK;
 }

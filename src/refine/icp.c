@@ -55,7 +55,7 @@ int pkss__plane_stage(const pkss__icp_view *src, const pkss__icp_view *tgt,
     const int from_pairs = runs && gate >= pkss__coverage_gate(src, tgt, T);
     if (!from_pairs) {
         double rms;
-        pkss__overlap_with(src, tgt, T, w, overlap_start, &rms, NULL, NULL);
+        pkss__overlap_with(src, tgt, T, w, overlap_start, &rms, NULL, NULL, NULL);
     }
     int it = 0;
     while (runs && it < iters) {
@@ -110,7 +110,7 @@ static size_t stage_pairs(icp_state *r, int stage, double *d2max)
 static void score_pose(icp_state *r)
 {
     pkss__overlap_with(r->src, r->tgt, &r->T, &r->w, &r->out->overlap,
-                       &r->out->rms, r->out->cover, &r->out->fit);
+                       &r->out->rms, r->out->cover, &r->out->fit, r->out->fit_cover);
 }
 
 /* Marks the run, scored, abandoned unless its fit beats the fit bar (then
@@ -266,7 +266,7 @@ static void finish(icp_state *r)
     out->iterations = r->it;
     if (!out->abandoned)
         pkss__overlap_with(r->src, r->tgt, &r->T, &r->w, &out->overlap, &out->rms,
-                           out->cover, &out->fit);
+                           out->cover, &out->fit, out->fit_cover);
     if (out->abandoned || out->duplicate_of >= 0 || r->sched->plane_iters <= 0)
         out->overlap_unpolished = out->overlap;
 }

@@ -98,6 +98,7 @@ typedef struct pkss__icp_result {
     double overlap;  /* overlap score on the views used (correspond.c) */
     double cover[2]; /* its parts: shares of source, template covered */
     double fit;      /* the overlap within ICP_FIT_DIST spacings */
+    double fit_cover[2]; /* its parts: shares of source, template that close */
     double overlap_unpolished; /* the overlap before the point-to-plane
                                   polish (= overlap without one): the value
                                   that other runs' bars are set from */

@@ -88,11 +88,12 @@ void pkss__coverage_from_pairs(const pkss__icp_view *src,
  * give at gate dist, without finding the nearest points. */
 void pkss__cover_within(const pkss__icp_view *src, const pkss__icp_view *tgt,
                         const pkss__pose *T, double dist, double cover[2]);
-/* Overlap score, RMS, coverages (may be NULL) and fit (may be NULL) at T. */
+/* Overlap score, RMS, coverages (may be NULL), fit and its coverages (both
+ * NULL or neither) at T. */
 void pkss__overlap_with(const pkss__icp_view *src, const pkss__icp_view *tgt,
                         const pkss__pose *T, pkss__icp_work *w,
                         double *overlap, double *rms, double *cover,
-                        double *fit);
+                        double *fit, double *fit_cover);
 /* The overlap at the pose of the last correspond() (gate), or -1 when the
  * gate was narrower than the coverage distance. */
 double pkss__overlap_from_pairs(const pkss__icp_view *src,

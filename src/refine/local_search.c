@@ -52,7 +52,8 @@ pkss_status pkss__icp_scale_search(const pkss__icp_view *src,
         return PKSS_ERR_OUT_OF_MEMORY;
     pkss_status st = PKSS_OK;
     pkss__icp_result best = *io;
-    pkss__overlap_with(src, tgt, &best.pose, &w, &best.overlap, &best.rms, best.cover, NULL);
+    pkss__overlap_with(src, tgt, &best.pose, &w, &best.overlap, &best.rms, best.cover, NULL,
+                       NULL);
     int w_at_best = 1; /* w holds the coverage answers at best.pose */
     double f = exp(log_step);
     int dir = 0; /* direction that last improved; 0 = try both */

@@ -223,8 +223,11 @@ int pkss__wants_full_run(const pkss__refinement *rs, const pkss__icp_result *ir,
         same_basin = pkss__same_basin(&ir[c].pose, &ir[order[j]].pose, h,
                                       &pkss__start_basin);
     /* a refined candidate covering both clouds ends the full runs: another
-     * pose could raise the overlap by 0.02 at most */
-    return i < *n_full && !same_basin && rs->lead_here < PKSS_COARSE_COMPLETE;
+     * pose could raise the overlap by 0.02 at most; so does one on which a
+     * cloud lies wholly within the fit distance: at its scale, another pose
+     * could explain no more of either */
+    return i < *n_full && !same_basin && rs->lead_here < PKSS_COARSE_COMPLETE &&
+           rs->explained_here < PKSS_EXPLAINED;
 }
 
 pkss_status pkss__stage_full_runs(pkss__refinement *rs, size_t base, size_t kept,
@@ -236,6 +239,7 @@ pkss_status pkss__stage_full_runs(pkss__refinement *rs, size_t base, size_t kept
     size_t n_full = pkss__initial_full_count(ir, order, kept), n_rest = 0;
     rs->lead_overlap = lead_in;
     rs->lead_here = 0.0;
+    rs->explained_here = 0.0;
     for (size_t i = 0; i < kept; ++i) {
         size_t c = base + (size_t)order[i];
         PKSS_FORWARD(pkss__checkpoint(rs->v.sv.run, PKSS_PROGRESS_REFINE, (uint32_t)i,
@@ -375,6 +379,7 @@ pkss_status pkss__stage_full_run(pkss__refinement *rs, size_t c, int scale_known
     rs->lead_overlap = fmax(rs->lead_overlap, r->overlap_unpolished);
     rs->lead_here = fmax(rs->lead_here, r->overlap_unpolished);
     rs->lead_fit = fmax(rs->lead_fit, r->fit);
+    rs->explained_here = fmax(rs->explained_here, fmax(r->fit_cover[0], r->fit_cover[1]));
     return PKSS_OK;
 }
 

@@ -31,6 +31,9 @@ typedef struct pkss__refinement {
      * any search and in the current one */
     double lead_overlap, lead_here;
     double lead_fit; /* the best fit fully refined, in any search */
+    /* the largest share of one cloud that a candidate fully refined in the
+     * current search lies on within the fit distance */
+    double explained_here;
     pkss__basins basins; /* minima reached by the full runs */
     pkss__views v;
     double search_seconds, refine_seconds;
