@@ -56,7 +56,8 @@ size_t pkss__initial_full_count(const pkss__icp_result *ir, const int *order,
 /* Whether order[i] gets a full run: among the first *n_full (which grows by
  * one when the candidate at n_full reaches the leader's overlap), not in
  * the basin of one ranked before it (pkss__start_basin, coarse h), and
- * while no refined candidate of this search covers both clouds. */
+ * while no refined candidate of this search covers both clouds, or has one
+ * cloud lying on it wholly (PKSS_EXPLAINED). */
 int pkss__wants_full_run(const pkss__refinement *rs, const pkss__icp_result *ir,
                          const int *order, size_t i, size_t *n_full, double h);
 /* The full runs of candidates [base, base+kept) after their coarse levels:
