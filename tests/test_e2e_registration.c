@@ -244,20 +244,42 @@ typedef struct part_cut {
     double share; /* of the points, nearest that point, cut away */
 } part_cut;
 
-/* The object in `file` with the cut `pc` made, registered onto the whole
- * under a fixed similarity: strict success and, with `wide`, the winner
- * comes from the second search, on the wide grid. */
-static void register_part(const char *file, const char *name, part_cut pc,
-                          int wide)
+/* Which search the winner must come from (register.c). */
+enum part_winner {
+    ANY_SEARCH,   /* only the strict bars */
+    WIDE_SEARCH,  /* the second search, on the wide grid */
+    FIRST_ALONE   /* the first search, and no search for parts ran after it */
+};
+
+/* The cloud with the cut pc made (a copy of it when pc.share is 0). */
+static double *cut_part(const double *cloud, size_t n, part_cut pc, size_t *n_part)
+{
+    if (pc.share == 0.0) {
+        double *copy = malloc(3 * n * sizeof(double));
+        assert_non_null(copy);
+        memcpy(copy, cloud, 3 * n * sizeof(double));
+        *n_part = n;
+        return copy;
+    }
+    assert_true(pc.axis >= 0 || pc.at < n);
+    size_t top = pc.axis >= 0 ? pkss_test_extreme(cloud, n, pc.axis, pc.from_min) : pc.at;
+    double *part = pkss_test_cut_near(cloud, n, top, pc.share, n_part);
+    assert_non_null(part);
+    return part;
+}
+
+/* The object in `file` with the cut `pc` made, registered onto the object
+ * with the cut `tc` made (none: share 0) under a fixed similarity: strict
+ * success, and the winner from the search `from`. */
+static void register_parts(const char *file, const char *name, part_cut pc,
+                           part_cut tc, enum part_winner from)
 {
     size_t n;
     double *cloud = pkss_test_load(file, &n);
     assert_non_null(cloud); /* unreadable: reason printed */
-    assert_true(pc.axis >= 0 || pc.at < n);
-    size_t top = pc.axis >= 0 ? pkss_test_extreme(cloud, n, pc.axis, pc.from_min) : pc.at;
-    size_t n_part;
-    double *part = pkss_test_cut_near(cloud, n, top, pc.share, &n_part);
-    assert_non_null(part);
+    size_t n_part, n_whole;
+    double *part = cut_part(cloud, n, pc, &n_part);
+    double *whole = cut_part(cloud, n, tc, &n_whole);
     /* target = T * whole, T = 1.7 Rx(-60) Ry(25) Rz(40) + (0.3, -0.2, 0.5) d */
     const double deg = 3.14159265358979323846 / 180.0, ax = -60 * deg, ay = 25 * deg, az = 40 * deg;
     double Rx[16] = {1, 0, 0, 0, 0, cos(ax), -sin(ax), 0, 0, sin(ax), cos(ax), 0, 0, 0, 0, 1};
@@ -273,38 +295,55 @@ static void register_part(const char *file, const char *name, part_cut pc,
             T[4 * r + c] *= 1.7;
         T[4 * r + 3] = t[r];
     }
-    double *target = malloc(n * 3 * sizeof(double));
-    pkss_test_apply(T, cloud, n, target);
+    double *target = malloc(n_whole * 3 * sizeof(double));
+    assert_non_null(target);
+    pkss_test_apply(T, whole, n_whole, target);
     pkss_context *ctx = make_context();
     pkss_result res;
-    pkss_test_err e = register_and_score(ctx, part, n_part, target, n, T, &res, name);
+    pkss_test_err e = register_and_score(ctx, part, n_part, target, n_whole, T, &res, name);
     const pkss_candidate wc = pkss_test_candidate(ctx, res.winner), *w = &wc;
     char where[32];
     if (pc.axis >= 0)
         snprintf(where, sizeof where, "%s %c", pc.from_min ? "min" : "max", "xyz"[pc.axis]);
     else
         snprintf(where, sizeof where, "point %zu", pc.at);
-    printf("  %s, %.0f %% nearest %s cut away: rot %.3f deg, scale %.3f %%, "
-           "trans %.3f %% of diameter, overlap %.3f, winner's offset %u of %u "
-           "(%s grid), %llu evaluations\n",
-           name, 100 * pc.share, where, e.rot_deg, 100 * e.scale_rel, 100 * e.trans / (1.7 * d), res.overlap,
-           w->offset_index, res.n_offsets, w->search ? "wide" : "paper",
-           (unsigned long long)res.n_evaluations);
+    printf("  %s, %.0f %% nearest %s cut away (%.0f %% of the target): rot %.3f deg, "
+           "scale %.3f %%, trans %.3f %% of diameter, overlap %.3f, fit %.3f, winner's "
+           "offset %u of %u (%s grid), %llu evaluations\n",
+           name, 100 * pc.share, where, 100 * tc.share, e.rot_deg, 100 * e.scale_rel,
+           100 * e.trans / (1.7 * d), res.overlap, res.fit, w->offset_index, res.n_offsets,
+           w->search ? "wide" : "paper", (unsigned long long)res.n_evaluations);
     fflush(stdout);
     /* the strict bars of SPEC 7 */
     assert_true(e.rot_deg < 5.0);
     assert_true(e.scale_rel < 0.02);
     assert_true(e.trans / (1.7 * d) < 0.02);
-    if (wide) { /* found by the second search, on the wide grid */
+    if (from == WIDE_SEARCH) { /* found by the second search, on the wide grid */
         assert_int_equal(res.n_evaluations,
                          2 * (uint64_t)res.n_rotations * res.n_offsets);
         assert_int_equal(w->search, 1);
         assert_true(w->offset_index < res.n_offsets);
     }
+    if (from == FIRST_ALONE) { /* in contact: neither the wide nor the local search ran */
+        assert_int_equal(res.n_evaluations, (uint64_t)res.n_rotations * res.n_offsets);
+        for (uint32_t c = 0; c < res.n_candidates; ++c) {
+            pkss_candidate ci = pkss_test_candidate(ctx, c);
+            assert_true(ci.search == 0 || ci.search == 2); /* first, or a shift of it */
+        }
+        assert_int_equal(w->search, 0);
+    }
     pkss_context_destroy(ctx);
     free(target);
+    free(whole);
     free(part);
     free(cloud);
+}
+
+/* The part pc registered onto the whole object. */
+static void register_part(const char *file, const char *name, part_cut pc, int wide)
+{
+    register_parts(file, name, pc, (part_cut){0, 0, 0, 0.0},
+                   wide ? WIDE_SEARCH : ANY_SEARCH);
 }
 
 /* A part of an object whose centroid lies beyond the reach of the paper's
@@ -365,6 +404,19 @@ static void test_box_part_slides_on_its_faces(void **state)
 {
     (void)state;
     register_part(MILK, "milk carton", (part_cut){1, 1, 0, 0.4}, 0);
+}
+
+/* Two parts of one object, 40 % of the chef cut away around its max-x
+ * point and 30 % of the target around its min-x point: the first search's
+ * winner lies on the target in contact (its overlapping points within the
+ * fit distance, PKSS_CONTACT), so the searches for a part's place, the
+ * wide grid and the local-shape starts, do not run. Before, they ran on
+ * every such pair and found the same pose again, doubling its time. */
+static void test_parts_in_contact_end_the_part_searches(void **state)
+{
+    (void)state;
+    register_parts(CHEF, "chef", (part_cut){0, 0, 0, 0.4}, (part_cut){1, 0, 0, 0.3},
+                   FIRST_ALONE);
 }
 
 /* A complete object, each side an independent 70 % subset (so no pose
@@ -439,6 +491,7 @@ int main(void)
         cmocka_unit_test(test_part_among_few_cell_pairings),
         cmocka_unit_test(test_part_too_large_at_preshape_scale),
         cmocka_unit_test(test_box_part_slides_on_its_faces),
+        cmocka_unit_test(test_parts_in_contact_end_the_part_searches),
         cmocka_unit_test(test_complete_object_one_full_refinement),
     };
     return cmocka_run_group_tests_name(PROGRAM, tests, NULL, NULL);

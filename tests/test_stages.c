@@ -154,6 +154,27 @@ static void test_winner_rule(void **state)
     free(rs);
 }
 
+static void test_contact_rule(void **state)
+{
+    (void)state;
+    const double ov[2] = {0.5, 0.5};
+    pkss__refinement *rs = set_of(ov, 2);
+    rs->ir[0].overlap = 0.5;
+    rs->ir[0].fit = PKSS_CONTACT * 0.5;
+    /* only a refined winner can be in contact */
+    assert_false(pkss__in_contact(rs, 0));
+    rs->refined[0] = 1;
+    assert_true(pkss__in_contact(rs, 0));
+    /* points near the surface but not on it: no contact */
+    rs->ir[0].fit = PKSS_CONTACT * 0.5 - 0.01;
+    assert_false(pkss__in_contact(rs, 0));
+    /* nothing overlapping is no contact */
+    rs->refined[1] = 1;
+    rs->ir[1].overlap = rs->ir[1].fit = 0.0;
+    assert_false(pkss__in_contact(rs, 1));
+    free(rs);
+}
+
 static void test_part_mode(void **state)
 {
     (void)state;
@@ -187,6 +208,7 @@ int main(void)
         cmocka_unit_test(test_basins_skip_own_and_bound),
         cmocka_unit_test(test_full_run_choice),
         cmocka_unit_test(test_winner_rule),
+        cmocka_unit_test(test_contact_rule),
         cmocka_unit_test(test_part_mode),
         cmocka_unit_test(test_schedules_defined_once),
     };

@@ -408,6 +408,12 @@ int pkss__pick_winner(const pkss__refinement *rs)
     return best;
 }
 
+int pkss__in_contact(const pkss__refinement *rs, int w)
+{
+    const pkss__icp_result *r = &rs->ir[w];
+    return rs->refined[w] && r->overlap > 0.0 && r->fit >= PKSS_CONTACT * r->overlap;
+}
+
 /* Whether the refined winner w shows a part: the translation searches'
  * condition (one cloud covers the other wholly, or neither: a part can
  * then be held on the wrong walls, or slide). */

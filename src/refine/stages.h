@@ -88,6 +88,12 @@ pkss_status pkss__stage_score_rest(pkss__refinement *rs, const int *list,
 /* The winner: the fully refined candidate with the highest fit, fits within
  * PKSS_OVERLAP_TIE broken by the lower RMS; candidate 0 when none is. */
 int pkss__pick_winner(const pkss__refinement *rs);
+/* Whether winner w is refined and lies on the template in contact: of its
+ * points within the overlap distance, PKSS_CONTACT or more lie within the
+ * fit distance (fit >= PKSS_CONTACT x overlap). Surfaces that coincide
+ * there: the search has placed the part, and wrong poses lie near the
+ * surface, not on it. */
+int pkss__in_contact(const pkss__refinement *rs, int w);
 /* The shift search on winner w when it does not cover both clouds: up to
  * PKSS_SHIFT_TRIALS translations of it that land more points (shift_search.c)
  * become candidates (*added of them, appended) and get full runs. */
