@@ -128,9 +128,10 @@
 #define PKSS_PART_OF_WHOLE 0.05
 /* coverage from which the part lies wholly on the other cloud */
 #define PKSS_PART_COVERED 0.9
-/* fit / overlap from which a refined winner lies on the template in
- * contact (its overlapping points within the fit distance, not merely near):
- * the searches for a part's place (wide, local) then look for none */
+/* fit / overlap from which a refined candidate lies on the template in
+ * contact (its overlapping points within the fit distance, not merely
+ * near): it ends its search's full runs, and as the winner the searches
+ * for a part's place (wide, local) */
 #define PKSS_CONTACT 0.9
 /* scale search moves (log of the factor): coarse views, then all points,
  * as the coarse tolerance cannot place the scale to 3 % */

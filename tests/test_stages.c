@@ -127,6 +127,11 @@ static void test_full_run_choice(void **state)
     assert_true(pkss__wants_full_run(rs, rs->ir, order, 2, &n_full, h));
     rs->explained_here = PKSS_EXPLAINED;
     assert_false(pkss__wants_full_run(rs, rs->ir, order, 2, &n_full, h));
+    /* ... and so does one in contact: a part placed */
+    rs->explained_here = 0.5;
+    assert_true(pkss__wants_full_run(rs, rs->ir, order, 2, &n_full, h));
+    rs->contact_here = 1;
+    assert_false(pkss__wants_full_run(rs, rs->ir, order, 2, &n_full, h));
     free(rs);
     free(r2);
 }

@@ -225,9 +225,10 @@ int pkss__wants_full_run(const pkss__refinement *rs, const pkss__icp_result *ir,
     /* a refined candidate covering both clouds ends the full runs: another
      * pose could raise the overlap by 0.02 at most; so does one on which a
      * cloud lies wholly within the fit distance: at its scale, another pose
-     * could explain no more of either */
+     * could explain no more of either; and one in contact: it has placed
+     * the part (pkss__in_contact) */
     return i < *n_full && !same_basin && rs->lead_here < PKSS_COARSE_COMPLETE &&
-           rs->explained_here < PKSS_EXPLAINED;
+           rs->explained_here < PKSS_EXPLAINED && !rs->contact_here;
 }
 
 pkss_status pkss__stage_full_runs(pkss__refinement *rs, size_t base, size_t kept,
@@ -240,6 +241,7 @@ pkss_status pkss__stage_full_runs(pkss__refinement *rs, size_t base, size_t kept
     rs->lead_overlap = lead_in;
     rs->lead_here = 0.0;
     rs->explained_here = 0.0;
+    rs->contact_here = 0;
     for (size_t i = 0; i < kept; ++i) {
         size_t c = base + (size_t)order[i];
         PKSS_FORWARD(pkss__checkpoint(rs->v.sv.run, PKSS_PROGRESS_REFINE, (uint32_t)i,
@@ -380,6 +382,7 @@ pkss_status pkss__stage_full_run(pkss__refinement *rs, size_t c, int scale_known
     rs->lead_here = fmax(rs->lead_here, r->overlap_unpolished);
     rs->lead_fit = fmax(rs->lead_fit, r->fit);
     rs->explained_here = fmax(rs->explained_here, fmax(r->fit_cover[0], r->fit_cover[1]));
+    rs->contact_here |= pkss__in_contact(rs, (int)c);
     return PKSS_OK;
 }
 

@@ -34,6 +34,9 @@ typedef struct pkss__refinement {
     /* the largest share of one cloud that a candidate fully refined in the
      * current search lies on within the fit distance */
     double explained_here;
+    /* whether a candidate fully refined in the current search is in
+     * contact (pkss__in_contact) */
+    int contact_here;
     pkss__basins basins; /* minima reached by the full runs */
     pkss__views v;
     double search_seconds, refine_seconds;
@@ -56,8 +59,9 @@ size_t pkss__initial_full_count(const pkss__icp_result *ir, const int *order,
 /* Whether order[i] gets a full run: among the first *n_full (which grows by
  * one when the candidate at n_full reaches the leader's overlap), not in
  * the basin of one ranked before it (pkss__start_basin, coarse h), and
- * while no refined candidate of this search covers both clouds, or has one
- * cloud lying on it wholly (PKSS_EXPLAINED). */
+ * while no refined candidate of this search covers both clouds, has one
+ * cloud lying on it wholly (PKSS_EXPLAINED), or is in contact
+ * (pkss__in_contact). */
 int pkss__wants_full_run(const pkss__refinement *rs, const pkss__icp_result *ir,
                          const int *order, size_t i, size_t *n_full, double h);
 /* The full runs of candidates [base, base+kept) after their coarse levels:
@@ -88,10 +92,10 @@ pkss_status pkss__stage_score_rest(pkss__refinement *rs, const int *list,
 /* The winner: the fully refined candidate with the highest fit, fits within
  * PKSS_OVERLAP_TIE broken by the lower RMS; candidate 0 when none is. */
 int pkss__pick_winner(const pkss__refinement *rs);
-/* Whether winner w is refined and lies on the template in contact: of its
- * points within the overlap distance, PKSS_CONTACT or more lie within the
- * fit distance (fit >= PKSS_CONTACT x overlap). Surfaces that coincide
- * there: the search has placed the part, and wrong poses lie near the
+/* Whether candidate w is fully refined and lies on the template in
+ * contact: of its points within the overlap distance, PKSS_CONTACT or more
+ * lie within the fit distance (fit >= PKSS_CONTACT x overlap). Surfaces
+ * that coincide there: the part is placed, and wrong poses lie near the
  * surface, not on it. */
 int pkss__in_contact(const pkss__refinement *rs, int w);
 /* The shift search on winner w when it does not cover both clouds: up to
