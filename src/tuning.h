@@ -132,7 +132,7 @@
  * contact (its overlapping points within the fit distance, not merely
  * near): it ends its search's full runs, and as the winner the searches
  * for a part's place (wide, local) */
-#define PKSS_CONTACT 0.85
+#define PKSS_CONTACT 0.9
 /* scale search moves (log of the factor): coarse views, then all points,
  * as the coarse tolerance cannot place the scale to 3 % */
 #define PKSS_SCALE_STEP_COARSE 0.10
