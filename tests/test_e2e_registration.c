@@ -407,11 +407,10 @@ static void test_box_part_slides_on_its_faces(void **state)
 }
 
 /* Two parts of one object, 40 % of the chef cut away around its max-x
- * point and 30 % of the target around its min-x point: the first search's
+ * point and 30 % of the target around its max-y point: the first search's
  * winner lies on the target in contact (its overlapping points within the
  * fit distance, PKSS_CONTACT), so the searches for a part's place, the
- * wide grid and the local-shape starts, do not run. Before, they ran on
- * every such pair and found the same pose again, doubling its time. */
+ * wide grid and the local-shape starts, do not run. */
 static void test_parts_in_contact_end_the_part_searches(void **state)
 {
     (void)state;
