@@ -166,7 +166,7 @@ static void test_contact_rule(void **state)
     pkss__refinement *rs = set_of(ov, 2);
     rs->ir[0].overlap = 0.5;
     rs->ir[0].fit = PKSS_CONTACT * 0.5;
-    /* only a refined winner can be in contact */
+    /* only a fully refined candidate can be in contact */
     assert_false(pkss__in_contact(rs, 0));
     rs->refined[0] = 1;
     assert_true(pkss__in_contact(rs, 0));

@@ -192,8 +192,8 @@ static pkss_status no_consensus(pkss_context *ctx)
 }
 
 /* The second search, on the wide offset grid (twice the step, SPEC 5
- * deviation), when winner w covers neither cloud and is not in contact
- * (pkss__in_contact): a part's centroid lies beyond the paper's grid. It
+ * deviation), when winner w is a part not yet placed (pkss__part_unplaced):
+ * its centroid may lie beyond the paper's grid. It
  * only adds candidates, which must beat the first search's winner, and
  * scores with the trimmed G (PKSS_WIDE_KEEP). Returns the winner after it
  * in *w and counts its evaluations. */
@@ -208,8 +208,7 @@ static pkss_status wide_search_stage(pkss_context *ctx, const pkss_cloud *src,
     size_t room = PKSS_MAX_CANDIDATES - rs->n;
     size_t k2 = (size_t)ctx->params.top_k < room ? (size_t)ctx->params.top_k : room;
     if (!(ctx->params.refine && ss->n_offsets > 1 && k2 > 0 &&
-          fmax(win->cover[0], win->cover[1]) < PKSS_PART_COVERED &&
-          !pkss__in_contact(rs, *w)))
+          pkss__part_unplaced(rs, *w)))
         return PKSS_OK;
     double t0 = pkss__now();
     if (pkss__search_setup_widen(&ctx->params, tgt, ss) != PKSS_OK)
@@ -222,16 +221,14 @@ static pkss_status wide_search_stage(pkss_context *ctx, const pkss_cloud *src,
 }
 
 /* Candidates from local shape (stages.c: pkss__stage_local) when winner w
- * covers neither cloud wholly after both searches and is not in contact:
- * both are parts, which the searches' centroid-based cells misjudge. They
- * must beat w's fit. */
+ * is still a part not placed after both searches (pkss__part_unplaced):
+ * both clouds are parts, which the searches' centroid-based cells
+ * misjudge. They must beat w's fit. */
 static pkss_status local_stage(pkss_context *ctx, const pkss__search_setup *ss,
                                pkss__refinement *rs, int *w)
 {
     const pkss__icp_result *win = &rs->ir[*w];
-    if (!(ctx->params.refine && rs->n < PKSS_MAX_CANDIDATES &&
-          fmax(win->cover[0], win->cover[1]) < PKSS_PART_COVERED &&
-          !pkss__in_contact(rs, *w)))
+    if (!(ctx->params.refine && rs->n < PKSS_MAX_CANDIDATES && pkss__part_unplaced(rs, *w)))
         return PKSS_OK;
     double t0 = pkss__now();
     size_t added = 0;

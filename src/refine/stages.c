@@ -417,6 +417,12 @@ int pkss__in_contact(const pkss__refinement *rs, int w)
     return rs->refined[w] && r->overlap > 0.0 && r->fit >= PKSS_CONTACT * r->overlap;
 }
 
+int pkss__part_unplaced(const pkss__refinement *rs, int w)
+{
+    const pkss__icp_result *r = &rs->ir[w];
+    return fmax(r->cover[0], r->cover[1]) < PKSS_PART_COVERED && !pkss__in_contact(rs, w);
+}
+
 /* Whether the refined winner w shows a part: the translation searches'
  * condition (one cloud covers the other wholly, or neither: a part can
  * then be held on the wrong walls, or slide). */
