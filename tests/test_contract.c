@@ -371,6 +371,48 @@ static void test_deterministic(void **state)
     pkss_context_destroy(ctx);
 }
 
+/* A cloud above PKSS_CULL_SUBSET m points is culled on a seeded uniform
+ * subset of that many: outliers appended at the end keep their share in it
+ * (culling removes about that share), the same input gives the same points,
+ * and a smaller cloud is culled whole. */
+static void test_culling_subset(void **state)
+{
+    (void)state;
+    pkss_context *ctx = ref_context(); /* m = 500: subsets of 4000 */
+    const size_t n_surf = 8000, n_out = 1000, n = n_surf + n_out;
+    const size_t want = PKSS_CULL_SUBSET * 500;
+    double *a = make_cloud(n, 21);
+    pkss_test_rng rng = {pkss_test_seed(PROGRAM, 22)};
+    for (size_t i = n_surf; i < n; ++i) {
+        a[3 * i] = 8.0 * pkss_test_uniform(&rng) - 4.0;
+        a[3 * i + 1] = 6.0 * pkss_test_uniform(&rng) - 3.0;
+        a[3 * i + 2] = 4.0 * pkss_test_uniform(&rng) - 2.0;
+    }
+    pkss_cloud *c1 = NULL, *c2 = NULL, *c3 = NULL;
+    assert_int_equal(pkss_cloud_create(ctx, a, n, &c1), PKSS_OK);
+    pkss_counts k;
+    assert_int_equal(pkss_cloud_counts(c1, &k), PKSS_OK);
+    assert_int_equal(k.thinned, want);
+    double expected = (double)want * (double)n_out / (double)n, removed = (double)(k.thinned - k.after_stat);
+    printf("subset of %zu: %.0f culled, %.0f outliers expected in it\n", want, removed, expected);
+    assert_true(removed > 0.6 * expected && removed < 1.4 * expected);
+    assert_int_equal(pkss_cloud_create(ctx, a, n, &c2), PKSS_OK);
+    double *p1 = malloc(500 * 3 * sizeof(double)), *p2 = malloc(500 * 3 * sizeof(double));
+    assert_int_equal(pkss_cloud_points(c1, p1, 500), PKSS_OK);
+    assert_int_equal(pkss_cloud_points(c2, p2, 500), PKSS_OK);
+    assert_memory_equal(p1, p2, 500 * 3 * sizeof(double));
+    assert_int_equal(pkss_cloud_create(ctx, a, want - 1, &c3), PKSS_OK);
+    assert_int_equal(pkss_cloud_counts(c3, &k), PKSS_OK);
+    assert_int_equal(k.thinned, want - 1);
+    free(p1);
+    free(p2);
+    free(a);
+    pkss_cloud_destroy(c1);
+    pkss_cloud_destroy(c2);
+    pkss_cloud_destroy(c3);
+    pkss_context_destroy(ctx);
+}
+
 int main(void)
 {
     pkss_test_seed(PROGRAM, 0);
@@ -379,6 +421,7 @@ int main(void)
         cmocka_unit_test(test_parameters),
         cmocka_unit_test(test_bad_inputs),
         cmocka_unit_test(test_deterministic),
+        cmocka_unit_test(test_culling_subset),
         cmocka_unit_test(test_threads),
         cmocka_unit_test(test_out_of_memory),
     };

@@ -453,6 +453,28 @@ static pkss_status thin_copy(prep *w)
         w->pts = thin;
         w->np = nt;
     }
+    return PKSS_OK;
+}
+
+/* Larger clouds are culled on a seeded uniform subset of PKSS_CULL_SUBSET m
+ * points (selection sampling, order kept): the filters' statistics are
+ * density-relative, so outliers keep their share, and FPS takes only m. */
+static pkss_status subset_for_culling(prep *w)
+{
+    size_t want = PKSS_CULL_SUBSET * (size_t)w->p->points;
+    if (w->np > want) {
+        uint64_t rng = (uint64_t)w->p->seed ^ 0x5ca1ab1e5eedULL;
+        size_t kept = 0;
+        for (size_t i = 0; i < w->np && kept < want; ++i) {
+            /* keep point i with odds (want - kept) / (np - i) */
+            double u = (double)(pkss__splitmix64(&rng) >> 11) * 0x1.0p-53;
+            if (u * (double)(w->np - i) < (double)(want - kept)) {
+                memmove(w->pts + 3 * kept, w->pts + 3 * i, 3 * sizeof(double));
+                ++kept;
+            }
+        }
+        w->np = kept;
+    }
     w->c->counts.thinned = w->np;
     return PKSS_OK;
 }
@@ -566,7 +588,7 @@ static const struct {
     prep_stage run;
 } PREP_STAGES[] = {
     {0, thin_in_place}, {0, drop_duplicates}, {1, thin_copy},
-    {2, cull_outliers}, {3, resample},        {3, map_to_preshape},
+    {1, subset_for_culling}, {2, cull_outliers}, {3, resample}, {3, map_to_preshape},
     {4, build_tree},    {5, features},        {5, coarse_and_frame},
 };
 
