@@ -3,7 +3,8 @@
  * documented status and a message naming the problem; NULL handling;
  * status names and sentences; parameters (bounds, defaults, types, reset);
  * out-of-memory at every allocation gives a clean status; contexts in
- * parallel threads; determinism (the struct growth rule: test_abi.c).
+ * parallel threads; determinism; the subset that culling sees (the struct
+ * growth rule: test_abi.c).
  */
 #define _POSIX_C_SOURCE 200809L
 #include "support.h"
@@ -393,7 +394,8 @@ static void test_culling_subset(void **state)
     pkss_counts k;
     assert_int_equal(pkss_cloud_counts(c1, &k), PKSS_OK);
     assert_int_equal(k.thinned, want);
-    double expected = (double)want * (double)n_out / (double)n, removed = (double)(k.thinned - k.after_stat);
+    double expected = (double)want * (double)n_out / (double)n;
+    double removed = (double)(k.thinned - k.after_stat);
     printf("subset of %zu: %.0f culled, %.0f outliers expected in it\n", want, removed, expected);
     assert_true(removed > 0.6 * expected && removed < 1.4 * expected);
     assert_int_equal(pkss_cloud_create(ctx, a, n, &c2), PKSS_OK);

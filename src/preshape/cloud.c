@@ -456,6 +456,9 @@ static pkss_status thin_copy(prep *w)
     return PKSS_OK;
 }
 
+/* The subset's draws: a splitmix64 stream of the seed apart from thin.c's. */
+#define CULL_SUBSET_STREAM 0x5ca1ab1e5eedULL
+
 /* Larger clouds are culled on a seeded uniform subset of PKSS_CULL_SUBSET m
  * points (selection sampling, order kept): the filters' statistics are
  * density-relative, so outliers keep their share, and FPS takes only m. */
@@ -463,7 +466,7 @@ static pkss_status subset_for_culling(prep *w)
 {
     size_t want = PKSS_CULL_SUBSET * (size_t)w->p->points;
     if (w->np > want) {
-        uint64_t rng = (uint64_t)w->p->seed ^ 0x5ca1ab1e5eedULL;
+        uint64_t rng = (uint64_t)w->p->seed ^ CULL_SUBSET_STREAM;
         size_t kept = 0;
         for (size_t i = 0; i < w->np && kept < want; ++i) {
             /* keep point i with odds (want - kept) / (np - i) */
