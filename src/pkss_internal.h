@@ -278,6 +278,8 @@ void pkss__cross3(const double *a, const double *b, double *c);
 /* The next value of a splitmix64 stream (the seeded draws of thin.c and
  * local_match.c). */
 uint64_t pkss__splitmix64(uint64_t *state);
+/* Its next value as a uniform double in [0, 1) (53 bits; thin.c, cloud.c). */
+double pkss__splitmix64_unit(uint64_t *state);
 /* Solves A x = b for a symmetric positive definite n x n A (row-major;
  * overwritten by its Cholesky factor); x replaces b. Returns 0, leaving b
  * undefined, when A is not positive definite. */

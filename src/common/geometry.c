@@ -269,3 +269,8 @@ uint64_t pkss__splitmix64(uint64_t *state)
     z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
     return z ^ (z >> 31);
 }
+
+double pkss__splitmix64_unit(uint64_t *state)
+{
+    return (double)(pkss__splitmix64(state) >> 11) * 0x1.0p-53;
+}

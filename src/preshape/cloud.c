@@ -460,23 +460,22 @@ static pkss_status thin_copy(prep *w)
 #define CULL_SUBSET_STREAM 0x5ca1ab1e5eedULL
 
 /* Larger clouds are culled on a seeded uniform subset of PKSS_CULL_SUBSET m
- * points (selection sampling, order kept): the filters' statistics are
- * density-relative, so outliers keep their share, and FPS takes only m. */
+ * points (selection sampling into the keep mask, then compact: order kept):
+ * the filters' statistics are density-relative, so outliers keep their
+ * share, and FPS takes only m. */
 static pkss_status subset_for_culling(prep *w)
 {
     size_t want = PKSS_CULL_SUBSET * (size_t)w->p->points;
     if (w->np > want) {
         uint64_t rng = (uint64_t)w->p->seed ^ CULL_SUBSET_STREAM;
         size_t kept = 0;
-        for (size_t i = 0; i < w->np && kept < want; ++i) {
+        for (size_t i = 0; i < w->np; ++i) {
             /* keep point i with odds (want - kept) / (np - i) */
-            double u = (double)(pkss__splitmix64(&rng) >> 11) * 0x1.0p-53;
-            if (u * (double)(w->np - i) < (double)(want - kept)) {
-                memmove(w->pts + 3 * kept, w->pts + 3 * i, 3 * sizeof(double));
-                ++kept;
-            }
+            w->keep[i] = kept < want && pkss__splitmix64_unit(&rng) * (double)(w->np - i) <
+                                            (double)(want - kept);
+            kept += w->keep[i];
         }
-        w->np = kept;
+        w->np = compact(w->pts, w->np, w->keep);
     }
     w->c->counts.thinned = w->np;
     return PKSS_OK;

@@ -165,7 +165,7 @@ static double grid_frame(thin_grid *g, const double *xyz, size_t n,
     *area = 2.0 * (e[0] * e[1] + e[1] * e[2] + e[2] * e[0]);
     uint64_t rs = seed;
     for (int d = 0; d < 3; ++d)
-        g->off[d] = (double)(pkss__splitmix64(&rs) >> 11) * 0x1.0p-53;
+        g->off[d] = pkss__splitmix64_unit(&rs);
     return extent;
 }
 
