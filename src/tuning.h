@@ -134,9 +134,13 @@
 #define PKSS_PART_COVERED 0.9
 /* fit / overlap from which a refined candidate lies on the template in
  * contact (its overlapping points within the fit distance, not merely
- * near): it ends its search's full runs, and as the winner the searches
- * for a part's place (wide, local) */
+ * near): it ends its search's full runs */
 #define PKSS_CONTACT 0.9
+/* fit / overlap from which the winner has placed the part: the searches for
+ * its place (wide, local) do not run. Below PKSS_CONTACT, as a winner beat
+ * every refined candidate: wrong winners that a later search beat read
+ * <= 0.73, scans' right ones 0.80-1.00 */
+#define PKSS_PLACED 0.85
 /* scale search moves (log of the factor): coarse views, then all points,
  * as the coarse tolerance cannot place the scale to 3 % */
 #define PKSS_SCALE_STEP_COARSE 0.10

@@ -180,6 +180,37 @@ static void test_contact_rule(void **state)
     free(rs);
 }
 
+/* A winner that lies on the template at a ratio between PKSS_PLACED and
+ * PKSS_CONTACT has placed the part (no search for its place runs), though
+ * as a single candidate it would not end its search's full runs. */
+static void test_placed_rule(void **state)
+{
+    (void)state;
+    const double ov[1] = {0.5};
+    pkss__refinement *rs = set_of(ov, 1);
+    const double between = 0.5 * (PKSS_PLACED + PKSS_CONTACT);
+    assert_true(PKSS_PLACED < PKSS_CONTACT);
+    rs->refined[0] = 1;
+    rs->ir[0].overlap = 0.5;
+    rs->ir[0].cover[0] = 0.6;
+    rs->ir[0].cover[1] = 0.5;
+    rs->ir[0].fit = between * 0.5;
+    assert_false(pkss__in_contact(rs, 0));
+    assert_false(pkss__part_unplaced(rs, 0));
+    /* below the placed ratio: the searches for the part's place run */
+    rs->ir[0].fit = PKSS_PLACED * 0.5 - 0.01;
+    assert_true(pkss__part_unplaced(rs, 0));
+    /* a part covered wholly is placed whatever the ratio */
+    rs->ir[0].cover[0] = PKSS_PART_COVERED;
+    assert_false(pkss__part_unplaced(rs, 0));
+    /* a winner not fully refined has placed nothing */
+    rs->ir[0].cover[0] = 0.6;
+    rs->ir[0].fit = between * 0.5;
+    rs->refined[0] = 0;
+    assert_true(pkss__part_unplaced(rs, 0));
+    free(rs);
+}
+
 static void test_part_mode(void **state)
 {
     (void)state;
@@ -214,6 +245,7 @@ int main(void)
         cmocka_unit_test(test_full_run_choice),
         cmocka_unit_test(test_winner_rule),
         cmocka_unit_test(test_contact_rule),
+        cmocka_unit_test(test_placed_rule),
         cmocka_unit_test(test_part_mode),
         cmocka_unit_test(test_schedules_defined_once),
     };

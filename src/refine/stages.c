@@ -411,16 +411,24 @@ int pkss__pick_winner(const pkss__refinement *rs)
     return best;
 }
 
-int pkss__in_contact(const pkss__refinement *rs, int w)
+/* Whether candidate w is fully refined and at least `ratio` of its points
+ * within the overlap distance lie within the fit distance. */
+static int lies_on(const pkss__refinement *rs, int w, double ratio)
 {
     const pkss__icp_result *r = &rs->ir[w];
-    return rs->refined[w] && r->overlap > 0.0 && r->fit >= PKSS_CONTACT * r->overlap;
+    return rs->refined[w] && r->overlap > 0.0 && r->fit >= ratio * r->overlap;
+}
+
+int pkss__in_contact(const pkss__refinement *rs, int w)
+{
+    return lies_on(rs, w, PKSS_CONTACT);
 }
 
 int pkss__part_unplaced(const pkss__refinement *rs, int w)
 {
     const pkss__icp_result *r = &rs->ir[w];
-    return fmax(r->cover[0], r->cover[1]) < PKSS_PART_COVERED && !pkss__in_contact(rs, w);
+    return fmax(r->cover[0], r->cover[1]) < PKSS_PART_COVERED &&
+           !lies_on(rs, w, PKSS_PLACED);
 }
 
 /* Whether the refined winner w shows a part: the translation searches'

@@ -99,8 +99,10 @@ int pkss__pick_winner(const pkss__refinement *rs);
  * surface, not on it. */
 int pkss__in_contact(const pkss__refinement *rs, int w);
 /* Whether winner w leaves a part's place to be searched for (the wide
- * search, the local starts): it covers neither cloud wholly and is not in
- * contact. */
+ * search, the local starts): it covers neither cloud wholly and does not
+ * lie on the template as a placed winner does (fit >= PKSS_PLACED x
+ * overlap; the winner of every refined candidate, so a lower ratio than
+ * one candidate's contact needs). */
 int pkss__part_unplaced(const pkss__refinement *rs, int w);
 /* The shift search on winner w when it does not cover both clouds: up to
  * PKSS_SHIFT_TRIALS translations of it that land more points (shift_search.c)
