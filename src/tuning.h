@@ -163,6 +163,9 @@
 /* slide search range, share of the template's extent either way (box
  * parts slide by 8-14 % of the diameter) */
 #define PKSS_SLIDE_RANGE 0.2
+/* points between a bounded fit's tests of whether it can still reach its
+ * bar (correspond.c:pkss__fit_reaching; speed only) */
+#define PKSS_FIT_BLOCK 64
 /* translation search at the winner's rotation and scale (shift_search.c):
  * vote cells of 2 template spacings, coarsened to at most 16 cells either
  * way (bounds the peak scan); translations up to a quarter of the

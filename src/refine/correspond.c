@@ -251,6 +251,34 @@ void pkss__coverage_from_pairs(const pkss__icp_view *src,
     cover[1] = tgt->m ? (double)bwd_hits / (double)tgt->m : 0.0;
 }
 
+/* Source points [i0, i1) with a template point strictly within sqrt(d2)
+ * at T (template units). */
+static size_t hits_forward(const pkss__icp_view *src, const pkss__icp_view *tgt,
+                           const pkss__pose *T, double d2, size_t i0, size_t i1)
+{
+    size_t hits = 0;
+    for (size_t i = i0; i < i1; ++i) {
+        double y[3];
+        pkss__pose_apply(T, src->pts + 3 * i, y);
+        hits += (size_t)pkss__kdtree_any_within(tgt->tree, y, d2);
+    }
+    return hits;
+}
+
+/* Template points [j0, j1) with a source point strictly within sqrt(d2s)
+ * (source units). */
+static size_t hits_backward(const pkss__icp_view *src, const pkss__icp_view *tgt,
+                            const pkss__pose *T, double d2s, size_t j0, size_t j1)
+{
+    size_t hits = 0;
+    for (size_t j = j0; j < j1; ++j) {
+        double x[3];
+        pkss__pose_inverse_apply(T, tgt->pts + 3 * j, x);
+        hits += (size_t)pkss__kdtree_any_within(src->tree, x, d2s);
+    }
+    return hits;
+}
+
 typedef struct cover_job {
     const pkss__icp_view *src, *tgt;
     const pkss__pose *T;
@@ -261,12 +289,7 @@ typedef struct cover_job {
 static void cover_backward(void *arg)
 {
     cover_job *j = arg;
-    j->hits = 0;
-    for (size_t k = 0; k < j->tgt->m; ++k) {
-        double x[3];
-        pkss__pose_inverse_apply(j->T, j->tgt->pts + 3 * k, x);
-        j->hits += (size_t)pkss__kdtree_any_within(j->src->tree, x, j->d2s);
-    }
+    j->hits = hits_backward(j->src, j->tgt, j->T, j->d2s, 0, j->tgt->m);
 }
 
 void pkss__cover_within(const pkss__icp_view *src, const pkss__icp_view *tgt,
@@ -279,18 +302,45 @@ void pkss__cover_within(const pkss__icp_view *src, const pkss__icp_view *tgt,
     unsigned long ticket = 0;
     if (src->m + tgt->m >= 2 * ICP_THREAD_MIN)
         ticket = pkss__helper_offer(helper, cover_backward, &job);
-    size_t fwd_hits = 0;
-    for (size_t i = 0; i < src->m; ++i) {
-        double y[3];
-        pkss__pose_apply(T, src->pts + 3 * i, y);
-        fwd_hits += (size_t)pkss__kdtree_any_within(tgt->tree, y, d2);
-    }
+    size_t fwd_hits = hits_forward(src, tgt, T, d2, 0, src->m);
     if (ticket)
         pkss__helper_wait(helper, ticket, 0.0);
     else
         cover_backward(&job);
     cover[0] = src->m ? (double)fwd_hits / (double)src->m : 0.0;
     cover[1] = tgt->m ? (double)job.hits / (double)tgt->m : 0.0;
+}
+
+/* A share whose count may still gain the rest of its points. */
+static double share_at_most(size_t hits, size_t done, size_t m)
+{
+    return (double)(hits + (m - done)) / (double)m;
+}
+
+double pkss__fit_reaching(const pkss__icp_view *src, const pkss__icp_view *tgt,
+                          const pkss__pose *T, double dist, double bar)
+{
+    if (src->m == 0 || tgt->m == 0)
+        return 0.0;
+    double d2 = dist * dist, d2s = d2 / (T->s * T->s);
+    size_t fwd = 0, bwd = 0;
+    /* the counts in blocks, each block ending in the test that even every
+     * point left covered keeps sqrt(f_s f_t) below bar (both are rounded
+     * monotonically, so the bound holds for the exact fit too) */
+    for (size_t i = 0; i < src->m; i += PKSS_FIT_BLOCK) {
+        if (sqrt(share_at_most(fwd, i, src->m)) < bar)
+            return -1.0;
+        size_t end = i + PKSS_FIT_BLOCK < src->m ? i + PKSS_FIT_BLOCK : src->m;
+        fwd += hits_forward(src, tgt, T, d2, i, end);
+    }
+    const double fs = (double)fwd / (double)src->m;
+    for (size_t j = 0; j < tgt->m; j += PKSS_FIT_BLOCK) {
+        if (sqrt(fs * share_at_most(bwd, j, tgt->m)) < bar)
+            return -1.0;
+        size_t end = j + PKSS_FIT_BLOCK < tgt->m ? j + PKSS_FIT_BLOCK : tgt->m;
+        bwd += hits_backward(src, tgt, T, d2s, j, end);
+    }
+    return sqrt(fs * ((double)bwd / (double)tgt->m));
 }
 
 /* Coverage overlap: f_s = share of source points with a template point

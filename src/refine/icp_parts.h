@@ -88,6 +88,10 @@ void pkss__coverage_from_pairs(const pkss__icp_view *src,
  * give at gate dist, without finding the nearest points. */
 void pkss__cover_within(const pkss__icp_view *src, const pkss__icp_view *tgt,
                         const pkss__pose *T, double dist, double cover[2]);
+/* The fit sqrt(f_s f_t) within dist at T, equal to pkss__cover_within's,
+ * or -1 as soon as the counts show it stays below bar. One thread. */
+double pkss__fit_reaching(const pkss__icp_view *src, const pkss__icp_view *tgt,
+                          const pkss__pose *T, double dist, double bar);
 /* Overlap score, RMS, coverages (may be NULL), fit and its coverages (both
  * NULL or neither) at T. */
 void pkss__overlap_with(const pkss__icp_view *src, const pkss__icp_view *tgt,

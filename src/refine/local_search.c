@@ -92,6 +92,48 @@ out:
     return st;
 }
 
+/* One share of the slide search's trials (every other shift, k != 0):
+ * the best fit and its shift, starting from the held pose's. A trial is
+ * counted only until it cannot reach the share's best (most fall far
+ * short): the best is the same as counting every one. */
+typedef struct slide_job {
+    const pkss__icp_view *src, *tgt;
+    const pkss__pose *at;
+    double u[3], h, fg;
+    int steps, parity;
+    double best_fit;
+    int best_k;
+} slide_job;
+
+/* Whether (fit, k) beats (best_fit, best_k): a higher fit, or as high at a
+ * lower shift (the order of a scan from -steps up). */
+static int beats(double fit, int k, double best_fit, int best_k)
+{
+    return fit > best_fit || (fit == best_fit && k < best_k);
+}
+
+static int better(const slide_job *a, const slide_job *b)
+{
+    return beats(a->best_fit, a->best_k, b->best_fit, b->best_k);
+}
+
+static void slide_trials(void *arg)
+{
+    slide_job *j = arg;
+    for (int k = -j->steps; k <= j->steps; ++k) {
+        if (k == 0 || (k + j->steps) % 2 != j->parity)
+            continue;
+        pkss__pose trial = *j->at;
+        for (int d = 0; d < 3; ++d)
+            trial.t[d] += k * j->h * j->u[d];
+        double fit = pkss__fit_reaching(j->src, j->tgt, &trial, j->fg, j->best_fit);
+        if (beats(fit, k, j->best_fit, j->best_k)) {
+            j->best_fit = fit;
+            j->best_k = k;
+        }
+    }
+}
+
 /* The slide search (the stages run it on a winner that does not cover both
  * clouds): on a prism-like template surface (box faces, a cylinder) the
  * translation along it is held only by the part's rims and end features,
@@ -136,22 +178,23 @@ pkss_status pkss__icp_slide_search(const pkss__icp_view *src,
     }
     /* every trial shift's fit, unpolished, in steps of one spacing (the
      * fit's own tolerance: a narrower peak could fall between steps) */
-    const int steps = (int)(PKSS_SLIDE_RANGE * (hi - lo) / h);
     const double fg = ICP_FIT_DIST / ICP_OVERLAP_DIST * pkss__coverage_gate(src, tgt, &at);
-    double best_fit = -1.0;
-    int best_k = 0;
-    for (int k = -steps; k <= steps; ++k) {
-        pkss__pose trial = at;
-        for (int d = 0; d < 3; ++d)
-            trial.t[d] += k * h * u[d];
-        double f[2];
-        pkss__cover_within(src, tgt, &trial, fg, f);
-        double fit = sqrt(f[0] * f[1]);
-        if (fit > best_fit) {
-            best_fit = fit;
-            best_k = k;
-        }
-    }
+    double f0[2];
+    pkss__cover_within(src, tgt, &at, fg, f0);
+    slide_job jobs[2];
+    for (int k = 0; k < 2; ++k)
+        jobs[k] = (slide_job){src, tgt, &at, {u[0], u[1], u[2]}, h, fg,
+                              (int)(PKSS_SLIDE_RANGE * (hi - lo) / h), k,
+                              sqrt(f0[0] * f0[1]), 0};
+    pkss__helper *helper = src->run ? &src->run->helper : NULL;
+    unsigned long ticket = pkss__helper_offer(helper, slide_trials, &jobs[1]);
+    slide_trials(&jobs[0]);
+    if (ticket)
+        pkss__helper_wait(helper, ticket, 0.0);
+    else
+        slide_trials(&jobs[1]);
+    const slide_job *b = better(&jobs[1], &jobs[0]) ? &jobs[1] : &jobs[0];
+    const int best_k = b->best_k;
     if (best_k != 0) {
         pkss__pose start = at;
         for (int d = 0; d < 3; ++d)
