@@ -73,6 +73,7 @@ typedef struct pkss__helper {
     void (*fn)(void *);
     void *arg;
     unsigned long submitted, completed;
+    atomic_ulong posted, finished; /* copies of the two, for the spins */
 } pkss__helper;
 
 void pkss__helper_init(pkss__helper *h);

@@ -312,6 +312,9 @@
 /* ---- Threads and progress (common/) ----------------------------------- */
 /* queries below which the second thread costs more than it saves */
 #define ICP_THREAD_MIN 1000
+/* seconds a thread spins for a hand-over before it sleeps: ICP iterations
+ * hand over every few hundred us, a wake-up costs 20-60 us (helper.c) */
+#define PKSS_HELPER_SPIN 100e-6
 /* seconds between the caller's progress ticks while it waits */
 #define PKSS_WAIT_TICK 0.01
 /* seconds between progress callbacks within one stage */
