@@ -310,8 +310,9 @@
 #define PKSS_WG_BIN_GPU 64
 
 /* ---- Threads and progress (common/) ----------------------------------- */
-/* queries below which the second thread costs more than it saves */
-#define ICP_THREAD_MIN 1000
+/* queries below which the second thread costs more than it saves (a
+ * hand-over costs ~1 us with the spins, 750 queries 30-60 us) */
+#define ICP_THREAD_MIN 300
 /* seconds a thread spins for a hand-over before it sleeps: ICP iterations
  * hand over every few hundred us, a wake-up costs 20-60 us (helper.c) */
 #define PKSS_HELPER_SPIN 100e-6
