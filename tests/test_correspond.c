@@ -181,6 +181,50 @@ static void test_cover_within_equals_correspond(void **state)
     }
 }
 
+/* pkss__fit_reaching returns cover_within's fit bit for bit whenever it
+ * counts to the end, and -1 only when that fit lies below the bar: bars
+ * below, at and above the fit, at poses near and far, with ties. */
+static void test_fit_reaching_bounds_the_fit(void **state)
+{
+    (void)state;
+    pkss_test_rng r = {g_seed + 11};
+    static const double bars[] = {-1.0, 0.0, 0.5, 0.999, 1.0, 1.001, 1.5, 2.0};
+    for (int ties = 0; ties <= 1; ++ties) {
+        side src, tgt;
+        side_make(&src, make_sheet(&r, 1500, ties), 1500);
+        side_make(&tgt, make_sheet(&r, 1800, ties), 1800);
+        const double h = tgt.view.spacing;
+        pkss__pose T;
+        pkss__mat3_identity(T.R);
+        T.s = 1.0;
+        T.t[0] = T.t[1] = T.t[2] = 0.0;
+        int stopped = 0, counted = 0;
+        for (int step = 0; step < 30; ++step) {
+            nudge(&r, 0.05, 0.5 * h, 0.02, &T);
+            double dist = h * (0.5 + 0.25 * (step % 12)), f[2];
+            pkss__cover_within(&src.view, &tgt.view, &T, dist, f);
+            const double fit = sqrt(f[0] * f[1]);
+            for (size_t b = 0; b < sizeof bars / sizeof *bars; ++b) {
+                double bar = bars[b] * fit;
+                double got = pkss__fit_reaching(&src.view, &tgt.view, &T, dist, bar);
+                if (got == -1.0) {
+                    if (!(fit < bar))
+                        fail_msg("step %d: stopped below bar %.17g, but the fit is %.17g",
+                                 step, bar, fit);
+                    ++stopped;
+                } else {
+                    if (got != fit)
+                        fail_msg("step %d: fit %.17g, cover_within's %.17g", step, got, fit);
+                    ++counted;
+                }
+            }
+        }
+        assert_true(stopped > 0 && counted > 0); /* both outcomes were met */
+        side_free(&src);
+        side_free(&tgt);
+    }
+}
+
 static void test_remembered_answers_equal_fresh_queries(void **state)
 {
     (void)state;
@@ -260,6 +304,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_remembered_answers_equal_fresh_queries),
         cmocka_unit_test(test_cover_within_equals_correspond),
+        cmocka_unit_test(test_fit_reaching_bounds_the_fit),
         cmocka_unit_test(test_remembered_answers_keep_ties),
         cmocka_unit_test(test_tiny_clouds),
         cmocka_unit_test(test_work_counts),
