@@ -499,17 +499,22 @@ PKSS_INLINE pkss_vi pkss_load_pair(PKSS_CONST float *src, int shift,
 }
 
 /* A residual filter on the pairs: with `on`, only pairs whose residual    */
-/* under (R, mx, my, sx, sy) is at most tau take part.                    */
+/* under (R, mx, my, sx, sy) is at most tau take part. With `cached`, the  */
+/* residuals are read from res[cell], computed once (pkss_cache_residuals) */
+/* for the bisection's passes instead of again in each: the same values.  */
 typedef struct pkss_trim {
-    int on;
+    int on, cached;
     pkss_vf R[9], mx[3], my[3], sx, sy, tau;
+    pkss_vf res[PKSS_TRIM_CACHE_CELLS];
 } pkss_trim;
 
-PKSS_INLINE pkss_vi pkss_trim_keeps(const pkss_trim *f, const pkss_vf *x,
-                                    const pkss_vf *y)
+PKSS_INLINE pkss_vi pkss_trim_keeps(const pkss_trim *f, int cell,
+                                    const pkss_vf *x, const pkss_vf *y)
 {
     if (!f->on)
         return PKSS_TRUE;
+    if (f->cached)
+        return f->res[cell] <= f->tau;
     return pkss_pair_residual(f->R, x, y, f->mx, f->my, f->sx, f->sy) <= f->tau;
 }
 
@@ -529,7 +534,7 @@ PKSS_INLINE pkss_vi pkss_pair_means(PKSS_CONST float *src, int shift,
             pkss_vi m = pkss_load_pair(src, shift, tgt, tgt_stride, n_az, e, a, x, y);
             if (!PKSS_ANY(m))
                 continue;
-            m = m & pkss_trim_keeps(f, x, y);
+            m = m & pkss_trim_keeps(f, n_az * e + a, x, y);
             k = k + PKSS_ONE_IF(m);
             for (int d = 0; d < 3; ++d) {
                 mx[d] = mx[d] + PKSS_SEL(m, x[d], zero);
@@ -561,7 +566,7 @@ PKSS_INLINE void pkss_pair_cov(PKSS_CONST float *src, int shift,
             pkss_vi m = pkss_load_pair(src, shift, tgt, tgt_stride, n_az, e, a, x, y);
             if (!PKSS_ANY(m))
                 continue;
-            m = m & pkss_trim_keeps(f, x, y);
+            m = m & pkss_trim_keeps(f, n_az * e + a, x, y);
             pkss_vf x0 = x[0] - mx[0], x1 = x[1] - mx[1], x2 = x[2] - mx[2];
             pkss_vf y0 = y[0] - my[0], y1 = y[1] - my[1], y2 = y[2] - my[2];
             H[0] = H[0] + PKSS_SEL(m, x0 * y0, zero);
@@ -580,18 +585,46 @@ PKSS_INLINE void pkss_pair_cov(PKSS_CONST float *src, int shift,
     *ny_out = ny;
 }
 
+/* Fills f->res with every template cell's residual under f (a value no  */
+/* tau reaches where the cell has no pair in a lane) and sets f->cached,  */
+/* when the partition has at most PKSS_TRIM_CACHE_CELLS cells.            */
+PKSS_INLINE void pkss_cache_residuals(PKSS_CONST float *src, int shift,
+                                      PKSS_CONST float *tgt, int tgt_stride,
+                                      int n_az, pkss_trim *f)
+{
+    f->cached = 0;
+    if (n_az * (n_az / 2) > PKSS_TRIM_CACHE_CELLS)
+        return;
+    const pkss_vf none = PKSS_VF(3.0e38f);
+    pkss_vf x[3], y[3];
+    for (int e = 0; e < n_az / 2; ++e)
+        for (int a = 0; a < n_az; ++a) {
+            pkss_vi m = pkss_load_pair(src, shift, tgt, tgt_stride, n_az, e, a, x, y);
+            f->res[n_az * e + a] =
+                PKSS_ANY(m) ? PKSS_SEL(m, pkss_pair_residual(f->R, x, y, f->mx, f->my,
+                                                             f->sx, f->sy), none)
+                            : none;
+        }
+    f->cached = 1;
+}
+
 /* How many matched pairs pass filter f. */
 PKSS_INLINE pkss_vi pkss_count_kept(PKSS_CONST float *src, int shift,
                                     PKSS_CONST float *tgt, int tgt_stride,
                                     int n_az, const pkss_trim *f)
 {
     pkss_vi k = PKSS_VI(0);
+    if (f->cached) { /* a cell without a pair holds a residual no tau reaches */
+        for (int c = 0; c < n_az * (n_az / 2); ++c)
+            k = k + PKSS_ONE_IF(f->res[c] <= f->tau);
+        return k;
+    }
     pkss_vf x[3], y[3];
     for (int e = 0; e < n_az / 2; ++e)
         for (int a = 0; a < n_az; ++a) {
             pkss_vi m = pkss_load_pair(src, shift, tgt, tgt_stride, n_az, e, a, x, y);
             if (PKSS_ANY(m))
-                k = k + PKSS_ONE_IF(m & pkss_trim_keeps(f, x, y));
+                k = k + PKSS_ONE_IF(m & pkss_trim_keeps(f, n_az * e + a, x, y));
         }
     return k;
 }
@@ -627,6 +660,7 @@ PKSS_INLINE pkss_vf pkss_score_lanes(PKSS_CONST float *src, int shift,
 {
     pkss_trim f;
     f.on = 0;
+    f.cached = 0;
     pkss_vf mx[3], my[3], H[9], nx, ny, sv[3], V[9];
     pkss_vi k = pkss_pair_means(src, shift, tgt, tgt_stride, n_az, &f, mx, my);
     pkss_vi valid = (k >= PKSS_MIN_MATCHED) &
@@ -651,6 +685,7 @@ PKSS_INLINE pkss_vf pkss_score_lanes(PKSS_CONST float *src, int shift,
     f.sx = 1.0f / PKSS_SQRT(PKSS_SEL(ok, nx, PKSS_VF(1.0f)));
     f.sy = 1.0f / PKSS_SQRT(PKSS_SEL(ok, ny, PKSS_VF(1.0f)));
     f.on = 1;
+    pkss_cache_residuals(src, shift, tgt, tgt_stride, n_az, &f);
     /* Bisection for the smallest tau (to tolerance) that keeps `need`
      * pairs. It starts from the mean residual / (1 - keep): by Markov's
      * inequality fewer than (1 - keep) k residuals exceed it, so it keeps

@@ -103,6 +103,10 @@
 #define PKSS_WIDE_SRC_COVER 0.4f
 /* bisection steps of the trimming threshold (ends within 2^-6) */
 #define PKSS_TRIM_STEPS 6
+/* the trimmed G keeps its pairs' residuals for the bisection up to this many
+ * cells (the default partition's 72; 4.6 KB a 16-lane work-item); more are
+ * recomputed in each pass (speed only) */
+#define PKSS_TRIM_CACHE_CELLS 72
 /* offset grid step = extent / this (Eq. 12: E/8) and, in the wide second
  * search, twice that step (E/4, reaching +-E/2) for a part's centroid */
 #define PKSS_OFFSET_DIV 8.0

@@ -324,6 +324,57 @@ static void test_trimmed_measure(void **state)
                        PKSS_HALF_PI_F, 0.0);
 }
 
+/* The trimmed G's residual cache (pkss_cache_residuals) changes no value:
+ * counts, means and moments of the pairs a filter keeps equal those that
+ * recompute each residual, bit for bit, at thresholds from none kept to
+ * all, with empty cells and outliers; and it is only used where the
+ * partition fits it. */
+static void test_trim_cache_equals_recomputing(void **state)
+{
+    (void)state;
+    pkss_test_rng rng = {pkss_test_seed(PROGRAM, 8)};
+    float src[4 * TRIM_CELLS], tgt[4 * TRIM_CELLS];
+    for (int n = 0; n < 100; ++n) {
+        trim_tables(&rng, 10, src, tgt);
+        for (int c = n % 7; c < TRIM_CELLS; c += 7) /* empty cells on either side */
+            (c % 2 ? src : tgt)[4 * c + 3] = -1.0f;
+        int shift = n % TRIM_AZ;
+        pkss_trim plain, cached;
+        plain.on = 1;
+        plain.cached = 0;
+        for (int i = 0; i < 9; ++i) /* a rotation near the identity */
+            plain.R[i] = (i % 4 == 0 ? 1.0f : 0.0f) + 0.05f * (float)pkss_test_normal(&rng);
+        for (int d = 0; d < 3; ++d) {
+            plain.mx[d] = 0.1f * (float)pkss_test_normal(&rng);
+            plain.my[d] = 0.1f * (float)pkss_test_normal(&rng);
+        }
+        plain.sx = 0.3f;
+        plain.sy = 0.35f;
+        cached = plain;
+        pkss_cache_residuals(src, shift, tgt, 1, TRIM_AZ, &cached);
+        assert_true(cached.cached);
+        for (int t = 0; t <= 40; ++t) {
+            plain.tau = cached.tau = 0.002f * (float)(t * t);
+            assert_int_equal(pkss_count_kept(src, shift, tgt, 1, TRIM_AZ, &plain),
+                             pkss_count_kept(src, shift, tgt, 1, TRIM_AZ, &cached));
+            float ma[3], mb[3], ya[3], yb[3], Ha[9], Hb[9], nxa, nxb, nya, nyb;
+            assert_int_equal(pkss_pair_means(src, shift, tgt, 1, TRIM_AZ, &plain, ma, ya),
+                             pkss_pair_means(src, shift, tgt, 1, TRIM_AZ, &cached, mb, yb));
+            pkss_pair_cov(src, shift, tgt, 1, TRIM_AZ, &plain, ma, ya, Ha, &nxa, &nya);
+            pkss_pair_cov(src, shift, tgt, 1, TRIM_AZ, &cached, mb, yb, Hb, &nxb, &nyb);
+            assert_memory_equal(ma, mb, sizeof ma);
+            assert_memory_equal(ya, yb, sizeof ya);
+            assert_memory_equal(Ha, Hb, sizeof Ha);
+            assert_true(nxa == nxb && nya == nyb);
+        }
+    }
+    /* a finer partition than the cache holds recomputes */
+    pkss_trim big;
+    big.on = 1;
+    pkss_cache_residuals(src, 0, tgt, 1, 2 * TRIM_AZ, &big);
+    assert_false(big.cached);
+}
+
 /* The source-side coverage guard of the wide search (src_cover,
  * PKSS_WIDE_SRC_COVER): a pairing that matches fewer than that share of
  * the source's occupied cells gets pi/2 even where it passes the
@@ -450,6 +501,7 @@ int main(void)
         cmocka_unit_test(test_near_degenerate_matrices),
         cmocka_unit_test(test_double_svd_and_procrustes),
         cmocka_unit_test(test_trimmed_measure),
+        cmocka_unit_test(test_trim_cache_equals_recomputing),
         cmocka_unit_test(test_source_coverage_guard),
         cmocka_unit_test(test_spd_solve),
         cmocka_unit_test(test_rotation_exp),
