@@ -186,6 +186,11 @@ size_t pkss__kdtree_size(const pkss__kdtree *tree);
  * many were found (min(k, n - excluded)). idx/d2 must hold k entries. */
 size_t pkss__kdtree_knn(const pkss__kdtree *tree, const double q[3], size_t k,
                         size_t skip, uint32_t *idx, double *d2);
+/* The same among the points within sqrt(max_d2) of q (inclusive): fewer
+ * than k when fewer lie there; every point not returned lies farther than
+ * the k-th returned or than sqrt(max_d2). */
+size_t pkss__kdtree_knn_within(const pkss__kdtree *tree, const double q[3], size_t k,
+                               size_t skip, double max_d2, uint32_t *idx, double *d2);
 /* Nearest neighbour within sqrt(max_d2); returns index or UINT32_MAX. */
 uint32_t pkss__kdtree_nearest(const pkss__kdtree *tree, const double q[3],
                               double max_d2, double *d2);

@@ -285,6 +285,9 @@
 /* a fresh nearest-neighbour query remembers this many neighbours less one;
  * the last one's distance is the margin (docs/tuning.md) */
 #define ICP_MEMO_K 4
+/* a fresh query looks this many gates far: beyond, it only bounds the
+ * margin (speed only) */
+#define ICP_MEMO_REACH 2.0
 
 /* ---- ICP schedules (refine/schedules.c; fields of pkss__icp_schedule) - */
 /* coarse level on every candidate: the search is ~10-20 degrees accurate,

@@ -411,6 +411,52 @@ static void test_any_within(void **state)
     assert_int_equal(pkss__kdtree_any_within(NULL, q, INFINITY), 0);
 }
 
+/* pkss__kdtree_knn_within: the unbounded k nearest cut at the bound
+ * (inclusive), bit for bit, for bounds below, at and around the k-th
+ * distance, on every kind of cloud (stacks of identical points, ties). */
+static void test_knn_within(void **state)
+{
+    (void)state;
+    pkss_test_rng rng = {g_seed + 6};
+    enum { K = 4 };
+    size_t cut = 0, full = 0;
+    for (int kind = 0; kind < N_KINDS; ++kind) {
+        size_t n = 1500;
+        double *x = make_cloud(&rng, (cloud_kind)kind, n);
+        pkss__kdtree *t = NULL;
+        assert_int_equal(pkss__kdtree_build(x, n, &t), PKSS_OK);
+        for (int a = 0; a < 300; ++a) {
+            size_t i = pkss_test_next(&rng) % n;
+            double q[3];
+            double scale = a % 3 == 0 ? 0.0 : (a % 3 == 1 ? 0.01 : 3.0);
+            for (int d = 0; d < 3; ++d)
+                q[d] = x[3 * i + d] + scale * pkss_test_normal(&rng);
+            uint32_t wi[K], gi[K];
+            double wd[K], gd[K];
+            size_t all = pkss__kdtree_knn(t, q, K, SIZE_MAX, wi, wd);
+            const double bounds[] = {INFINITY, 0.0, 0.5 * wd[0], wd[0], wd[1],
+                                     nextafter(wd[K - 1], 0.0), wd[K - 1],
+                                     nextafter(wd[K - 1], INFINITY), 4.0 * wd[K - 1]};
+            for (size_t b = 0; b < sizeof bounds / sizeof bounds[0]; ++b) {
+                size_t want = 0;
+                while (want < all && wd[want] <= bounds[b])
+                    ++want;
+                size_t got = pkss__kdtree_knn_within(t, q, K, SIZE_MAX, bounds[b], gi, gd);
+                if (got != want || memcmp(gi, wi, got * sizeof *gi) ||
+                    memcmp(gd, wd, got * sizeof *gd))
+                    fail_msg("knn_within %s query %d bound %.17g: %zu found, %zu expected "
+                             "(seed %llu)", KIND_NAME[kind], a, bounds[b], got, want,
+                             (unsigned long long)g_seed);
+                cut += want < K;
+                full += want == K;
+            }
+        }
+        pkss__kdtree_free(t);
+        free(x);
+    }
+    assert_true(cut > 0 && full > 0); /* both outcomes occur */
+}
+
 /* The skip argument excludes exactly one index, also inside a stack of
  * identical points, and indices that are not in the tree change nothing. */
 static void test_skip(void **state)
@@ -587,6 +633,7 @@ int main(void)
         cmocka_unit_test(test_knn_all),
         cmocka_unit_test(test_nearest),
         cmocka_unit_test(test_any_within),
+        cmocka_unit_test(test_knn_within),
         cmocka_unit_test(test_skip),
         cmocka_unit_test(test_duplicate_stack_speed),
         cmocka_unit_test(test_contract),

@@ -217,10 +217,17 @@ typedef struct knn_query {
     double q[3];
     size_t k;
     size_t skip;
+    double max_d2;    /* only points at most this far (INFINITY: all) */
     uint32_t *idx;
     double *d2;
     size_t count;
 } knn_query;
+
+/* The squared distance a point must not exceed to enter the list. */
+static inline double list_bound(const knn_query *s)
+{
+    return s->count == s->k ? s->d2[s->k - 1] : s->max_d2;
+}
 
 /* Inserts (dd, ix) if it belongs to the k best; returns 0 if it does not. */
 static inline int list_insert(knn_query *s, double dd, uint32_t ix)
@@ -247,7 +254,7 @@ static inline int list_insert(knn_query *s, double dd, uint32_t ix)
 /* True if a cell at squared box distance md cannot improve the list. */
 static inline int prune(const knn_query *s, double md)
 {
-    return s->count == s->k && md * PKSS_KD_SLACK > s->d2[s->k - 1];
+    return md * PKSS_KD_SLACK > list_bound(s);
 }
 
 static void knn_leaf(knn_query *s, const kd_node *node)
@@ -256,6 +263,8 @@ static void knn_leaf(knn_query *s, const kd_node *node)
     if (node->same) {
         /* identical points in index order: stop at the first that fails */
         double dd = pkss__dist2(t->pts + 3 * (size_t)node->begin, s->q);
+        if (dd > s->max_d2)
+            return;
         for (uint32_t i = node->begin; i < node->end; ++i) {
             uint32_t ix = t->index[i];
             if (ix == s->skip)
@@ -265,9 +274,10 @@ static void knn_leaf(knn_query *s, const kd_node *node)
         }
         return;
     }
-    /* a point farther than a full list's last cannot enter it, whatever
-     * its index: most points of a leaf stop at this one comparison */
-    double worst = s->count == s->k ? s->d2[s->k - 1] : INFINITY;
+    /* a point farther than a full list's last (or the bound) cannot enter
+     * it, whatever its index: most points of a leaf stop at this one
+     * comparison */
+    double worst = list_bound(s);
     for (uint32_t i = node->begin; i < node->end; ++i) {
         double dd = pkss__dist2(t->pts + 3 * (size_t)i, s->q);
         if (dd > worst)
@@ -331,8 +341,8 @@ static double root_dist(const pkss__kdtree *t, const double q[3],
     return md;
 }
 
-size_t pkss__kdtree_knn(const pkss__kdtree *t, const double q[3], size_t k,
-                        size_t skip, uint32_t *idx, double *d2)
+size_t pkss__kdtree_knn_within(const pkss__kdtree *t, const double q[3], size_t k,
+                               size_t skip, double max_d2, uint32_t *idx, double *d2)
 {
     if (!t || !q || !idx || !d2 || k == 0)
         return 0;
@@ -341,13 +351,21 @@ size_t pkss__kdtree_knn(const pkss__kdtree *t, const double q[3], size_t k,
     memcpy(s.q, q, sizeof s.q);
     s.k = k;
     s.skip = skip;
+    s.max_d2 = max_d2;
     s.idx = idx;
     s.d2 = d2;
     s.count = 0;
     double dists[3];
     double md = root_dist(t, q, dists);
-    knn_search(&s, &t->nodes[0], md, dists);
+    if (!prune(&s, md))
+        knn_search(&s, &t->nodes[0], md, dists);
     return s.count;
+}
+
+size_t pkss__kdtree_knn(const pkss__kdtree *t, const double q[3], size_t k,
+                        size_t skip, uint32_t *idx, double *d2)
+{
+    return pkss__kdtree_knn_within(t, q, k, skip, INFINITY, idx, d2);
 }
 
 /* Nearest neighbour: the k = 1 search with a starting radius. */

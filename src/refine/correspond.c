@@ -69,13 +69,18 @@ static uint32_t nearest_memo(const pkss__kdtree *tree, const double *pts,
         }
     }
     COUNT(m->lb[k] < 0.0 ? PKSS_WORK_FIRST : PKSS_WORK_MOVED);
+    /* only as far as ICP_MEMO_REACH gates: a point with no partner near
+     * stops at the boxes beyond, and the reach is then its margin */
     uint32_t idx[ICP_MEMO_K];
     double dd[ICP_MEMO_K];
-    size_t got = pkss__kdtree_knn(tree, q, ICP_MEMO_K, SIZE_MAX, idx, dd);
+    const double reach2 = ICP_MEMO_REACH * ICP_MEMO_REACH * g2;
+    size_t got = pkss__kdtree_knn_within(tree, q, ICP_MEMO_K, SIZE_MAX, reach2, idx, dd);
     memcpy(q0, q, 3 * sizeof(double));
     for (size_t i = 0; i < KEEP; ++i)
         near[i] = i < got ? idx[i] : UINT32_MAX;
-    m->lb[k] = got == ICP_MEMO_K ? sqrt(dd[KEEP]) : INFINITY;
+    m->lb[k] = got == ICP_MEMO_K              ? sqrt(dd[KEEP])
+               : got == pkss__kdtree_size(tree) ? INFINITY
+                                                : sqrt(reach2);
     int hit = got > 0 && dd[0] < g2;
     *d2 = hit ? dd[0] : g2;
     return hit ? idx[0] : UINT32_MAX;
