@@ -256,30 +256,22 @@ void pkss__coverage_from_pairs(const pkss__icp_view *src,
     cover[1] = tgt->m ? (double)bwd_hits / (double)tgt->m : 0.0;
 }
 
-/* Source points [i0, i1) with a template point strictly within sqrt(d2)
- * at T (template units). */
-static size_t hits_forward(const pkss__icp_view *src, const pkss__icp_view *tgt,
-                           const pkss__pose *T, double d2, size_t i0, size_t i1)
+/* Points [i0, i1) of view q with a point of `tree` strictly within
+ * sqrt(d2), q's points taken through T (forward: source points into the
+ * template, d2 in template units) or through its inverse (template points
+ * into the source, d2 in source units). */
+static size_t hits_within(const pkss__icp_view *q, const pkss__kdtree *tree,
+                          const pkss__pose *T, int inverse, double d2, size_t i0,
+                          size_t i1)
 {
     size_t hits = 0;
     for (size_t i = i0; i < i1; ++i) {
         double y[3];
-        pkss__pose_apply(T, src->pts + 3 * i, y);
-        hits += (size_t)pkss__kdtree_any_within(tgt->tree, y, d2);
-    }
-    return hits;
-}
-
-/* Template points [j0, j1) with a source point strictly within sqrt(d2s)
- * (source units). */
-static size_t hits_backward(const pkss__icp_view *src, const pkss__icp_view *tgt,
-                            const pkss__pose *T, double d2s, size_t j0, size_t j1)
-{
-    size_t hits = 0;
-    for (size_t j = j0; j < j1; ++j) {
-        double x[3];
-        pkss__pose_inverse_apply(T, tgt->pts + 3 * j, x);
-        hits += (size_t)pkss__kdtree_any_within(src->tree, x, d2s);
+        if (inverse)
+            pkss__pose_inverse_apply(T, q->pts + 3 * i, y);
+        else
+            pkss__pose_apply(T, q->pts + 3 * i, y);
+        hits += (size_t)pkss__kdtree_any_within(tree, y, d2);
     }
     return hits;
 }
@@ -294,7 +286,7 @@ typedef struct cover_job {
 static void cover_backward(void *arg)
 {
     cover_job *j = arg;
-    j->hits = hits_backward(j->src, j->tgt, j->T, j->d2s, 0, j->tgt->m);
+    j->hits = hits_within(j->tgt, j->src->tree, j->T, 1, j->d2s, 0, j->tgt->m);
 }
 
 void pkss__cover_within(const pkss__icp_view *src, const pkss__icp_view *tgt,
@@ -307,7 +299,7 @@ void pkss__cover_within(const pkss__icp_view *src, const pkss__icp_view *tgt,
     unsigned long ticket = 0;
     if (src->m + tgt->m >= 2 * ICP_THREAD_MIN)
         ticket = pkss__helper_offer(helper, cover_backward, &job);
-    size_t fwd_hits = hits_forward(src, tgt, T, d2, 0, src->m);
+    size_t fwd_hits = hits_within(src, tgt->tree, T, 0, d2, 0, src->m);
     if (ticket)
         pkss__helper_wait(helper, ticket, 0.0);
     else
@@ -336,14 +328,14 @@ double pkss__fit_reaching(const pkss__icp_view *src, const pkss__icp_view *tgt,
         if (sqrt(share_at_most(fwd, i, src->m)) < bar)
             return -1.0;
         size_t end = i + PKSS_FIT_BLOCK < src->m ? i + PKSS_FIT_BLOCK : src->m;
-        fwd += hits_forward(src, tgt, T, d2, i, end);
+        fwd += hits_within(src, tgt->tree, T, 0, d2, i, end);
     }
     const double fs = (double)fwd / (double)src->m;
     for (size_t j = 0; j < tgt->m; j += PKSS_FIT_BLOCK) {
         if (sqrt(fs * share_at_most(bwd, j, tgt->m)) < bar)
             return -1.0;
         size_t end = j + PKSS_FIT_BLOCK < tgt->m ? j + PKSS_FIT_BLOCK : tgt->m;
-        bwd += hits_backward(src, tgt, T, d2s, j, end);
+        bwd += hits_within(tgt, src->tree, T, 1, d2s, j, end);
     }
     return sqrt(fs * ((double)bwd / (double)tgt->m));
 }
