@@ -85,6 +85,9 @@ unsigned long pkss__helper_offer(pkss__helper *h, void (*fn)(void *), void *arg)
 /* Waits for the ticket's job: until it is done (seconds <= 0), or at most
  * `seconds`; returns 1 once it is done. */
 int pkss__helper_wait(pkss__helper *h, unsigned long ticket, double seconds);
+/* fn(a) on the caller and fn(b) on the helper if it is free (else on the
+ * caller after a); returns once both are done. h may be NULL. */
+void pkss__helper_both(pkss__helper *h, void (*fn)(void *), void *a, void *b);
 
 typedef struct pkss__run {
     pkss_progress_fn fn;

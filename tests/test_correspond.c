@@ -42,6 +42,15 @@ static double *make_sheet(pkss_test_rng *r, size_t n, int ties)
     return x;
 }
 
+static pkss__pose identity_pose(void)
+{
+    pkss__pose T;
+    pkss__mat3_identity(T.R);
+    T.s = 1.0;
+    T.t[0] = T.t[1] = T.t[2] = 0.0;
+    return T;
+}
+
 typedef struct side {
     double *pts;
     pkss__kdtree *tree;
@@ -108,10 +117,7 @@ static void walk(pkss_test_rng *r, int ties, size_t ns, size_t nt)
     const double h = tgt.view.spacing;
     pkss__icp_work memo, fresh;
     assert_true(pkss__work_alloc(&memo, ns, nt, 1));
-    pkss__pose T;
-    pkss__mat3_identity(T.R);
-    T.s = 1.0;
-    T.t[0] = T.t[1] = T.t[2] = 0.0;
+    pkss__pose T = identity_pose();
     double gate = 12.0 * h;
     size_t remembered = 0, asked = 0;
     for (int step = 0; step < 120; ++step) {
@@ -156,10 +162,7 @@ static void test_cover_within_equals_correspond(void **state)
         const double h = tgt.view.spacing;
         pkss__icp_work w;
         assert_true(pkss__work_alloc(&w, 1500, 1800, 0));
-        pkss__pose T;
-        pkss__mat3_identity(T.R);
-        T.s = 1.0;
-        T.t[0] = T.t[1] = T.t[2] = 0.0;
+        pkss__pose T = identity_pose();
         double lo = 1.0, hi = 0.0;
         for (int step = 0; step < 40; ++step) {
             nudge(&r, 0.05, 0.5 * h, 0.02, &T);
@@ -194,10 +197,7 @@ static void test_fit_reaching_bounds_the_fit(void **state)
         side_make(&src, make_sheet(&r, 1500, ties), 1500);
         side_make(&tgt, make_sheet(&r, 1800, ties), 1800);
         const double h = tgt.view.spacing;
-        pkss__pose T;
-        pkss__mat3_identity(T.R);
-        T.s = 1.0;
-        T.t[0] = T.t[1] = T.t[2] = 0.0;
+        pkss__pose T = identity_pose();
         int stopped = 0, counted = 0;
         for (int step = 0; step < 30; ++step) {
             nudge(&r, 0.05, 0.5 * h, 0.02, &T);
@@ -266,11 +266,8 @@ static void test_work_counts(void **state)
     pkss__icp_work memo, fresh;
     assert_true(pkss__work_alloc(&memo, ns, nt, 1));
     assert_true(pkss__work_alloc(&fresh, ns, nt, 0));
-    pkss__pose T;
-    pkss__mat3_identity(T.R);
-    T.s = 1.0;
+    pkss__pose T = identity_pose();
     T.t[0] = 0.01;
-    T.t[1] = T.t[2] = 0.0;
     const double gate = 6.0 * tgt.view.spacing;
     unsigned long n[PKSS_WORK_COUNTS];
     pkss__work_counts(n); /* from zero */

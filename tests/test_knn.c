@@ -318,6 +318,16 @@ static void test_knn_all(void **state)
     }
 }
 
+/* A query near a random point of x: on it (scale 0), just off it or far
+ * off it, by a normal step of that scale. */
+static void query_near(pkss_test_rng *rng, const double *x, size_t n, double scale,
+                       double q[3])
+{
+    size_t i = pkss_test_next(rng) % n;
+    for (int d = 0; d < 3; ++d)
+        q[d] = x[3 * i + d] + scale * pkss_test_normal(rng);
+}
+
 static void test_nearest(void **state)
 {
     (void)state;
@@ -329,11 +339,8 @@ static void test_nearest(void **state)
         pkss__kdtree *t = NULL;
         assert_int_equal(pkss__kdtree_build(x, n, &t), PKSS_OK);
         for (int a = 0; a < 500; ++a) {
-            size_t i = pkss_test_next(&rng) % n;
             double q[3];
-            double scale = a % 4 == 0 ? 0.0 : (a % 4 == 1 ? 0.01 : 3.0);
-            for (int d = 0; d < 3; ++d)
-                q[d] = x[3 * i + d] + scale * pkss_test_normal(&rng);
+            query_near(&rng, x, n, a % 4 == 0 ? 0.0 : (a % 4 == 1 ? 0.01 : 3.0), q);
             uint32_t ridx;
             double rd2;
             brute_knn(x, n, q, 1, SIZE_MAX, buf, &ridx, &rd2);
@@ -382,11 +389,8 @@ static void test_any_within(void **state)
         assert_int_equal(pkss__kdtree_build(x, n, &t), PKSS_OK);
         size_t inside = 0, asked = 0;
         for (int a = 0; a < 500; ++a) {
-            size_t i = pkss_test_next(&rng) % n;
             double q[3];
-            double scale = a % 4 == 0 ? 0.0 : (a % 4 == 1 ? 0.01 : 3.0);
-            for (int d = 0; d < 3; ++d)
-                q[d] = x[3 * i + d] + scale * pkss_test_normal(&rng);
+            query_near(&rng, x, n, a % 4 == 0 ? 0.0 : (a % 4 == 1 ? 0.01 : 3.0), q);
             double rd2 = 0.0;
             pkss__kdtree_nearest(t, q, INFINITY, &rd2);
             const double radii[] = {INFINITY, 2.0 * rd2 + 1e-12, rd2, 0.5 * rd2,
@@ -426,11 +430,8 @@ static void test_knn_within(void **state)
         pkss__kdtree *t = NULL;
         assert_int_equal(pkss__kdtree_build(x, n, &t), PKSS_OK);
         for (int a = 0; a < 300; ++a) {
-            size_t i = pkss_test_next(&rng) % n;
             double q[3];
-            double scale = a % 3 == 0 ? 0.0 : (a % 3 == 1 ? 0.01 : 3.0);
-            for (int d = 0; d < 3; ++d)
-                q[d] = x[3 * i + d] + scale * pkss_test_normal(&rng);
+            query_near(&rng, x, n, a % 3 == 0 ? 0.0 : (a % 3 == 1 ? 0.01 : 3.0), q);
             uint32_t wi[K], gi[K];
             double wd[K], gd[K];
             size_t all = pkss__kdtree_knn(t, q, K, SIZE_MAX, wi, wd);

@@ -140,3 +140,13 @@ int pkss__helper_wait(pkss__helper *h, unsigned long ticket, double seconds)
     pthread_mutex_unlock(&h->lock);
     return done;
 }
+
+void pkss__helper_both(pkss__helper *h, void (*fn)(void *), void *a, void *b)
+{
+    unsigned long ticket = pkss__helper_offer(h, fn, b);
+    fn(a);
+    if (ticket)
+        pkss__helper_wait(h, ticket, 0.0);
+    else
+        fn(b);
+}

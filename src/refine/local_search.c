@@ -187,12 +187,7 @@ pkss_status pkss__icp_slide_search(const pkss__icp_view *src,
                               (int)(PKSS_SLIDE_RANGE * (hi - lo) / h), k,
                               sqrt(f0[0] * f0[1]), 0};
     pkss__helper *helper = src->run ? &src->run->helper : NULL;
-    unsigned long ticket = pkss__helper_offer(helper, slide_trials, &jobs[1]);
-    slide_trials(&jobs[0]);
-    if (ticket)
-        pkss__helper_wait(helper, ticket, 0.0);
-    else
-        slide_trials(&jobs[1]);
+    pkss__helper_both(helper, slide_trials, &jobs[0], &jobs[1]);
     const slide_job *b = better(&jobs[1], &jobs[0]) ? &jobs[1] : &jobs[0];
     const int best_k = b->best_k;
     if (best_k != 0) {
