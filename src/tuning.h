@@ -320,6 +320,9 @@
 /* queries below which the second thread costs more than it saves (a
  * hand-over costs ~1 us with the spins, 750 queries 30-60 us) */
 #define ICP_THREAD_MIN 300
+/* lookups a thread claims at a time in a correspondence pass (~5-40 us of
+ * work: the claims cost nothing beside it; speed only) */
+#define PKSS_LOOKUP_CHUNK 128
 /* seconds a thread spins for a hand-over before it sleeps: ICP iterations
  * hand over every few hundred us, a wake-up costs 20-60 us (helper.c) */
 #define PKSS_HELPER_SPIN 100e-6

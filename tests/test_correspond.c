@@ -108,8 +108,10 @@ static void assert_same_answers(const pkss__icp_work *a, const pkss__icp_work *b
     }
 }
 
-/* One walk: the remembering work against a fresh query at every step. */
-static void walk(pkss_test_rng *r, int ties, size_t ns, size_t nt)
+/* One walk: the remembering work against a fresh query at every step;
+ * with `shared`, the remembering work's lookups are shared with that run's
+ * helper thread, the fresh ones answered on this thread alone. */
+static void walk(pkss_test_rng *r, int ties, size_t ns, size_t nt, pkss__run *shared)
 {
     side src, tgt;
     side_make(&src, make_sheet(r, ns, ties), ns);
@@ -129,7 +131,9 @@ static void walk(pkss_test_rng *r, int ties, size_t ns, size_t nt)
             gate = 8.0 * h; /* reopened, as the scale stage does */
         else if (gate > 3.0 * h)
             gate *= 0.85;
+        src.view.run = tgt.view.run = shared;
         pkss__correspond(&src.view, &tgt.view, &T, gate, &memo);
+        src.view.run = tgt.view.run = NULL;
         assert_true(pkss__work_alloc(&fresh, ns, nt, 0));
         pkss__correspond(&src.view, &tgt.view, &T, gate, &fresh);
         assert_same_answers(&memo, &fresh, ns, nt, step);
@@ -229,15 +233,32 @@ static void test_remembered_answers_equal_fresh_queries(void **state)
 {
     (void)state;
     pkss_test_rng r = {g_seed};
-    walk(&r, 0, 1500, 1800);
-    walk(&r, 0, 3000, 700);
+    walk(&r, 0, 1500, 1800, NULL);
+    walk(&r, 0, 3000, 700, NULL);
+}
+
+/* Lookups shared with the call's helper thread in chunks answer as one
+ * thread does, bit for bit, whichever thread took which chunk. */
+static void test_shared_answers_equal_one_thread(void **state)
+{
+    (void)state;
+    pkss_test_rng r = {g_seed + 4};
+    pkss_context *ctx;
+    assert_int_equal(pkss_context_create(&ctx), PKSS_OK);
+    pkss__run run;
+    pkss__run_begin(ctx, &run);
+    walk(&r, 0, 1500, 1800, &run);
+    walk(&r, 1, 1200, 1200, &run);
+    walk(&r, 0, 3000, 300, &run);
+    pkss__run_end(ctx);
+    pkss_context_destroy(ctx);
 }
 
 static void test_remembered_answers_keep_ties(void **state)
 {
     (void)state;
     pkss_test_rng r = {g_seed + 1};
-    walk(&r, 1, 1200, 1200);
+    walk(&r, 1, 1200, 1200, NULL);
 }
 
 /* Fewer points than a memo keeps: every answer still exact. */
@@ -245,8 +266,8 @@ static void test_tiny_clouds(void **state)
 {
     (void)state;
     pkss_test_rng r = {g_seed + 2};
-    walk(&r, 0, 2, 3);
-    walk(&r, 1, 5, 1);
+    walk(&r, 0, 2, 3, NULL);
+    walk(&r, 1, 5, 1, NULL);
 }
 
 /* A PKSS_COUNT_WORK build counts every lookup, and how each was answered:
@@ -300,6 +321,7 @@ int main(void)
     g_seed = pkss_test_seed(PROGRAM, 20261202);
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_remembered_answers_equal_fresh_queries),
+        cmocka_unit_test(test_shared_answers_equal_one_thread),
         cmocka_unit_test(test_cover_within_equals_correspond),
         cmocka_unit_test(test_fit_reaching_bounds_the_fit),
         cmocka_unit_test(test_remembered_answers_keep_ties),

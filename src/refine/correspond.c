@@ -8,10 +8,10 @@
 #include "refine/work_counts.h"
 
 #include <math.h>
+#include <stdatomic.h>
 #include <string.h>
 
 #ifdef PKSS_COUNT_WORK
-#include <stdatomic.h>
 /* The work of the lookups below, counted (CMake option PKSS_COUNT_WORK):
  * time on a shared machine is noisy, these counts are not. */
 static atomic_ulong work_counts[PKSS_WORK_COUNTS];
@@ -86,50 +86,68 @@ static uint32_t nearest_memo(const pkss__kdtree *tree, const double *pts,
     return hit ? idx[0] : UINT32_MAX;
 }
 
-typedef struct bwd_job {
+/* One pass's lookups, forward [0, src->m) then backward, claimed in chunks
+ * of PKSS_LOOKUP_CHUNK by whichever thread is free: the two directions'
+ * costs differ (a part's points find no partner), so a fixed split leaves
+ * one thread waiting. Each lookup owns its memo entry, so which thread
+ * answers it never changes the answer. */
+typedef struct lookup_job {
     const pkss__icp_view *src, *tgt;
     const pkss__pose *T;
-    double g2s;
+    double g2, g2s;
     pkss__icp_work *w;
-} bwd_job;
+    atomic_size_t next;
+} lookup_job;
 
-static void backward(void *arg)
+static void lookup_range(const lookup_job *j, size_t a, size_t b)
 {
-    const bwd_job *j = arg;
     pkss__icp_work *w = j->w;
-    for (size_t k = 0; k < j->tgt->m; ++k) {
+    const size_t nf = j->src->m;
+    for (size_t i = a; i < b && i < nf; ++i) {
+        double y[3];
+        pkss__pose_apply(j->T, j->src->pts + 3 * i, y);
+        w->fwd[i] = nearest_memo(j->tgt->tree, j->tgt->pts, y, j->g2, &w->fwd_memo, i,
+                                 &w->fwd_d2[i]);
+    }
+    for (size_t k = (a > nf ? a : nf) - nf; k + nf < b; ++k) {
         double x[3];
         pkss__pose_inverse_apply(j->T, j->tgt->pts + 3 * k, x);
-        w->bwd[k] = nearest_memo(j->src->tree, j->src->pts, x, j->g2s, &w->bwd_memo,
-                                 k, &w->bwd_d2[k]);
+        w->bwd[k] = nearest_memo(j->src->tree, j->src->pts, x, j->g2s, &w->bwd_memo, k,
+                                 &w->bwd_d2[k]);
+    }
+}
+
+static void lookups(void *arg)
+{
+    lookup_job *j = arg;
+    const size_t total = j->src->m + j->tgt->m;
+    for (;;) {
+        size_t a = atomic_fetch_add_explicit(&j->next, PKSS_LOOKUP_CHUNK,
+                                             memory_order_relaxed);
+        if (a >= total)
+            return;
+        lookup_range(j, a, a + PKSS_LOOKUP_CHUNK < total ? a + PKSS_LOOKUP_CHUNK : total);
     }
 }
 
 /* Nearest template point of every source point (fwd) and nearest source
  * point of every template point (bwd), both within gate (template units);
  * UINT32_MAX where none; fwd_d2 / bwd_d2 the squared distances (bwd_d2 in
- * source units, where the backward search runs). The two directions are
- * independent: large views offer the backward one to the call's helper
- * thread (ICP_THREAD_MIN). */
+ * source units, where the backward search runs). Large views share the
+ * lookups with the call's helper thread (ICP_THREAD_MIN). */
 void pkss__correspond(const pkss__icp_view *src, const pkss__icp_view *tgt,
                       const pkss__pose *T, double gate, pkss__icp_work *w)
 {
     double g2 = gate * gate;
-    bwd_job job = {src, tgt, T, g2 / (T->s * T->s), w};
+    lookup_job job = {.src = src, .tgt = tgt, .T = T, .g2 = g2, .g2s = g2 / (T->s * T->s), .w = w};
+    atomic_init(&job.next, 0);
     pkss__helper *helper = src->run ? &src->run->helper : NULL;
     unsigned long ticket = 0;
     if (src->m + tgt->m >= 2 * ICP_THREAD_MIN)
-        ticket = pkss__helper_offer(helper, backward, &job);
-    for (size_t i = 0; i < src->m; ++i) {
-        double y[3];
-        pkss__pose_apply(T, src->pts + 3 * i, y);
-        w->fwd[i] = nearest_memo(tgt->tree, tgt->pts, y, g2, &w->fwd_memo, i,
-                                 &w->fwd_d2[i]);
-    }
+        ticket = pkss__helper_offer(helper, lookups, &job);
+    lookups(&job);
     if (ticket)
         pkss__helper_wait(helper, ticket, 0.0);
-    else
-        backward(&job);
 }
 
 static void memo_free(pkss__nn_memo *m)
