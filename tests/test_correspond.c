@@ -6,7 +6,8 @@
  * partners (ties to the lowest index) and the same squared distances, both
  * ways, along walks of poses with small steps (answers remembered), jumps
  * (renewed), gates that shrink, hold and reopen, and clouds with duplicate
- * points and exact ties.
+ * points and exact ties; and so must its lookups when the call's helper
+ * thread shares them.
  */
 #include "support.h"
 

@@ -139,7 +139,8 @@ void pkss__correspond(const pkss__icp_view *src, const pkss__icp_view *tgt,
                       const pkss__pose *T, double gate, pkss__icp_work *w)
 {
     double g2 = gate * gate;
-    lookup_job job = {.src = src, .tgt = tgt, .T = T, .g2 = g2, .g2s = g2 / (T->s * T->s), .w = w};
+    lookup_job job = {.src = src, .tgt = tgt, .T = T, .g2 = g2, .g2s = g2 / (T->s * T->s),
+                      .w = w};
     atomic_init(&job.next, 0);
     pkss__helper *helper = src->run ? &src->run->helper : NULL;
     unsigned long ticket = 0;
