@@ -130,11 +130,18 @@ static void lookups(void *arg)
     }
 }
 
+/* The call's helper thread for a two-way pass over src and tgt, or NULL
+ * where the views are too small to gain from it (ICP_THREAD_MIN). */
+static pkss__helper *pass_helper(const pkss__icp_view *src, const pkss__icp_view *tgt)
+{
+    return src->run && src->m + tgt->m >= 2 * ICP_THREAD_MIN ? &src->run->helper : NULL;
+}
+
 /* Nearest template point of every source point (fwd) and nearest source
  * point of every template point (bwd), both within gate (template units);
  * UINT32_MAX where none; fwd_d2 / bwd_d2 the squared distances (bwd_d2 in
- * source units, where the backward search runs). Large views share the
- * lookups with the call's helper thread (ICP_THREAD_MIN). */
+ * source units, where the backward search runs). Both threads work on the
+ * one job, each claiming chunks until none is left. */
 void pkss__correspond(const pkss__icp_view *src, const pkss__icp_view *tgt,
                       const pkss__pose *T, double gate, pkss__icp_work *w)
 {
@@ -142,13 +149,7 @@ void pkss__correspond(const pkss__icp_view *src, const pkss__icp_view *tgt,
     lookup_job job = {.src = src, .tgt = tgt, .T = T, .g2 = g2, .g2s = g2 / (T->s * T->s),
                       .w = w};
     atomic_init(&job.next, 0);
-    pkss__helper *helper = src->run ? &src->run->helper : NULL;
-    unsigned long ticket = 0;
-    if (src->m + tgt->m >= 2 * ICP_THREAD_MIN)
-        ticket = pkss__helper_offer(helper, lookups, &job);
-    lookups(&job);
-    if (ticket)
-        pkss__helper_wait(helper, ticket, 0.0);
+    pkss__helper_both(pass_helper(src, tgt), lookups, &job, &job);
 }
 
 static void memo_free(pkss__nn_memo *m)
@@ -295,17 +296,20 @@ static size_t hits_within(const pkss__icp_view *q, const pkss__kdtree *tree,
     return hits;
 }
 
+/* One direction's existence queries over all of view q's points. */
 typedef struct cover_job {
-    const pkss__icp_view *src, *tgt;
+    const pkss__icp_view *q;
+    const pkss__kdtree *tree;
     const pkss__pose *T;
-    double d2s;   /* squared distance, source units */
+    int inverse;
+    double d2;
     size_t hits;
 } cover_job;
 
-static void cover_backward(void *arg)
+static void cover_count(void *arg)
 {
     cover_job *j = arg;
-    j->hits = hits_within(j->tgt, j->src->tree, j->T, 1, j->d2s, 0, j->tgt->m);
+    j->hits = hits_within(j->q, j->tree, j->T, j->inverse, j->d2, 0, j->q->m);
 }
 
 void pkss__cover_within(const pkss__icp_view *src, const pkss__icp_view *tgt,
@@ -313,18 +317,11 @@ void pkss__cover_within(const pkss__icp_view *src, const pkss__icp_view *tgt,
 {
     /* the squared bounds as correspond() forms its gates */
     double d2 = dist * dist;
-    cover_job job = {src, tgt, T, d2 / (T->s * T->s), 0};
-    pkss__helper *helper = src->run ? &src->run->helper : NULL;
-    unsigned long ticket = 0;
-    if (src->m + tgt->m >= 2 * ICP_THREAD_MIN)
-        ticket = pkss__helper_offer(helper, cover_backward, &job);
-    size_t fwd_hits = hits_within(src, tgt->tree, T, 0, d2, 0, src->m);
-    if (ticket)
-        pkss__helper_wait(helper, ticket, 0.0);
-    else
-        cover_backward(&job);
-    cover[0] = src->m ? (double)fwd_hits / (double)src->m : 0.0;
-    cover[1] = tgt->m ? (double)job.hits / (double)tgt->m : 0.0;
+    cover_job fwd = {src, tgt->tree, T, 0, d2, 0};
+    cover_job bwd = {tgt, src->tree, T, 1, d2 / (T->s * T->s), 0};
+    pkss__helper_both(pass_helper(src, tgt), cover_count, &fwd, &bwd);
+    cover[0] = src->m ? (double)fwd.hits / (double)src->m : 0.0;
+    cover[1] = tgt->m ? (double)bwd.hits / (double)tgt->m : 0.0;
 }
 
 /* A share whose count may still gain the rest of its points. */

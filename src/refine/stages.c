@@ -125,22 +125,16 @@ static void cand_worker(void *arg)
         cand_one(w, w->list[k]);
 }
 
-/* Odd-numbered entries on the helper thread if it is free, the rest here. */
+/* Odd-numbered entries on the helper thread if it is free (else here after
+ * the even ones), the even ones here: each candidate owns its results. */
 static pkss_status for_each_candidate(const cand_work *w)
 {
     cand_work a = *w, b = *w;
     a.first = 0;
     b.first = 1;
     a.stride = b.stride = 2;
-    pkss__helper *helper = w->rs->v.sv.run ? &w->rs->v.sv.run->helper : NULL;
-    unsigned long ticket = w->n_list > 1 ? pkss__helper_offer(helper, cand_worker, &b) : 0;
-    if (ticket) {
-        cand_worker(&a);
-        pkss__helper_wait(helper, ticket, 0.0);
-    } else {
-        a.stride = 1;
-        cand_worker(&a);
-    }
+    pkss__helper *helper = w->rs->v.sv.run && w->n_list > 1 ? &w->rs->v.sv.run->helper : NULL;
+    pkss__helper_both(helper, cand_worker, &a, &b);
     for (size_t k = 0; k < w->n_list; ++k)
         if (w->rs->st[w->list[k]] != PKSS_OK)
             return w->rs->st[w->list[k]];
