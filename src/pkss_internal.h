@@ -200,11 +200,37 @@ uint32_t pkss__kdtree_nearest(const pkss__kdtree *tree, const double q[3],
 /* Whether a point lies within sqrt(max_d2) of q (strictly): the same answer
  * as pkss__kdtree_nearest(tree, q, max_d2, NULL) != UINT32_MAX, sooner. */
 int pkss__kdtree_any_within(const pkss__kdtree *tree, const double q[3], double max_d2);
+/* Every point within sqrt(max_d2) of q (inclusive), unordered, as positions
+ * in the tree's own order with their squared distances; returns how many lie
+ * there, of which only the first cap are written. */
+size_t pkss__kdtree_within(const pkss__kdtree *tree, const double q[3], double max_d2,
+                           size_t cap, uint32_t *pos, double *d2);
+/* The tree's copy of the points (n x 3, tree order) and, per tree position,
+ * the point's index in the array the tree was built from. */
+const double *pkss__kdtree_points(const pkss__kdtree *tree);
+const uint32_t *pkss__kdtree_order(const pkss__kdtree *tree);
 /* kNN of every point of the tree itself (self excluded): idx/d2 are n*k.
  * xyz must be the array the tree was built from (n = its size); the tree's
  * own copy of the points is read. */
 pkss_status pkss__knn_all(const pkss__kdtree *tree, const double *xyz,
                           size_t n, size_t k, uint32_t *idx, double *d2);
+
+/* Exact nearest neighbours by cells of space, built as queries arrive and
+ * shared by the threads of a call (nn_field.c). NULL from _new where memory
+ * is short: callers then ask the tree. */
+typedef struct pkss__nn_field pkss__nn_field;
+pkss__nn_field *pkss__nn_field_new(const pkss__kdtree *tree, double spacing);
+/* The same with 2^slot_bits slots and room for pool_entries list entries
+ * (_new: PKSS_FIELD_SLOT_BITS and PKSS_FIELD_POOL_ENTRIES; tests). */
+pkss__nn_field *pkss__nn_field_sized(const pkss__kdtree *tree, double spacing,
+                                     int slot_bits, size_t pool_entries);
+void pkss__nn_field_free(pkss__nn_field *field);
+/* Up to keep nearest points of q by (distance, index), nearest first, each
+ * strictly nearer than *lb, and every point not returned at least *lb away.
+ * Returns how many (0: none lies within lb), or -1 where the field has no
+ * answer: ask the tree. */
+int pkss__nn_field_near(pkss__nn_field *field, const double q[3], int keep,
+                        uint32_t *idx, double *d2, double *lb);
 
 /* ------------------------------------------------------- preprocessing */
 /* Each step takes an array of n points (double xyz) and writes a keep mask

@@ -289,6 +289,24 @@
  * margin (speed only) */
 #define ICP_MEMO_REACH 2.0
 
+/* The nearest-neighbour field (common/nn_field.c): cube side in spacings
+ * of the view; larger cubes are fewer to build but longer to read */
+#define PKSS_FIELD_CELL 3.0
+/* cubes farther than this many sides from every point keep no list (it
+ * would grow with the distance), only that distance as the bound */
+#define PKSS_FIELD_FAR 2.0
+/* points a list may hold (more: the cube keeps only its bound) */
+#define PKSS_FIELD_MAX_LIST 512
+/* nearest points a query may return, plus one */
+#define PKSS_FIELD_MAX_KEEP 8
+/* hash slots (2^bits, at most half of them cubes) and linear probes: a
+ * full table leaves new cubes to the tree */
+#define PKSS_FIELD_SLOT_BITS 14
+#define PKSS_FIELD_PROBES 16
+/* list entries (32 bytes) per field, 4 MB: memory stays bounded, a full
+ * pool leaves new cubes to the tree */
+#define PKSS_FIELD_POOL_ENTRIES (1u << 17)
+
 /* ---- ICP schedules (refine/schedules.c; fields of pkss__icp_schedule) - */
 /* coarse level on every candidate: the search is ~10-20 degrees accurate,
  * a 12h gate covers the rim's displacement at the coarse spacing */

@@ -6,8 +6,9 @@
  * and distances), on every kind of cloud: uniform, clustered, full of
  * duplicates, on an integer grid (ties everywhere), collinear and planar;
  * n from 1 to 20k, k up to 32 (and k > n). Also pkss__kdtree_nearest with
- * and without a radius, the `skip` argument, pkss__knn_all (padding when
- * n - 1 < k), the argument contract and clean out-of-memory failures.
+ * and without a radius, pkss__kdtree_within (all points within a radius),
+ * the `skip` argument, pkss__knn_all (padding when n - 1 < k), the argument
+ * contract and clean out-of-memory failures.
  */
 #include "support.h"
 
@@ -415,6 +416,64 @@ static void test_any_within(void **state)
     assert_int_equal(pkss__kdtree_any_within(NULL, q, INFINITY), 0);
 }
 
+/* pkss__kdtree_within: exactly the points within the radius (inclusive),
+ * each once, as tree positions that map back to their indices and
+ * coordinates, with their squared distances; a cap writes only the first. */
+static void test_within_radius(void **state)
+{
+    (void)state;
+    pkss_test_rng rng = {g_seed + 8};
+    for (int kind = 0; kind < N_KINDS; ++kind) {
+        size_t n = 2000;
+        double *x = make_cloud(&rng, (cloud_kind)kind, n);
+        pkss__kdtree *t = NULL;
+        assert_int_equal(pkss__kdtree_build(x, n, &t), PKSS_OK);
+        const double *tp = pkss__kdtree_points(t);
+        const uint32_t *order = pkss__kdtree_order(t);
+        uint32_t *pos = malloc(n * sizeof *pos);
+        double *d2 = malloc(n * sizeof *d2);
+        unsigned char *seen = malloc(n);
+        assert_true(pos && d2 && seen);
+        for (int a = 0; a < 200; ++a) {
+            double q[3], rd2 = 0.0;
+            query_near(&rng, x, n, a % 3 == 0 ? 0.0 : 0.05, q);
+            uint32_t near[8];
+            double nd[8];
+            pkss__kdtree_knn(t, q, 8, SIZE_MAX, near, nd);
+            rd2 = nd[a % 8]; /* a radius on a point: the bound is inclusive */
+            size_t got = pkss__kdtree_within(t, q, rd2, n, pos, d2);
+            memset(seen, 0, n);
+            for (size_t i = 0; i < got; ++i) {
+                uint32_t ix = order[pos[i]];
+                assert_true(ix < n && !seen[ix]);
+                seen[ix] = 1;
+                assert_memory_equal(tp + 3 * (size_t)pos[i], x + 3 * (size_t)ix,
+                                    3 * sizeof(double));
+                assert_true(d2[i] == dist2(x + 3 * (size_t)ix, q));
+            }
+            for (size_t i = 0; i < n; ++i)
+                if (!seen[i] && dist2(x + 3 * i, q) <= rd2)
+                    fail_msg("within %s query %d: point %zu at %.17g missed (r^2 %.17g)",
+                             KIND_NAME[kind], a, i, dist2(x + 3 * i, q), rd2);
+            assert_true(got >= (size_t)(a % 8) + 1);
+            /* capped: the count all the same, only the first written */
+            size_t capped = pkss__kdtree_within(t, q, rd2, 1, pos, d2);
+            assert_int_equal(capped, got);
+        }
+        free(seen);
+        free(d2);
+        free(pos);
+        pkss__kdtree_free(t);
+        free(x);
+    }
+    double q[3] = {0, 0, 0};
+    uint32_t p;
+    double d;
+    assert_int_equal(pkss__kdtree_within(NULL, q, 1.0, 1, &p, &d), 0);
+    assert_null(pkss__kdtree_points(NULL));
+    assert_null(pkss__kdtree_order(NULL));
+}
+
 /* pkss__kdtree_knn_within: the unbounded k nearest cut at the bound
  * (inclusive), bit for bit, for bounds below, at and around the k-th
  * distance, on every kind of cloud (stacks of identical points, ties). */
@@ -635,6 +694,7 @@ int main(void)
         cmocka_unit_test(test_nearest),
         cmocka_unit_test(test_any_within),
         cmocka_unit_test(test_knn_within),
+        cmocka_unit_test(test_within_radius),
         cmocka_unit_test(test_skip),
         cmocka_unit_test(test_duplicate_stack_speed),
         cmocka_unit_test(test_contract),

@@ -53,8 +53,8 @@ echo "== [4/6] ThreadSanitizer build + the threaded tests"
 cmake -S . -B build-tsan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPKSS_TSAN=ON \
       -DPKSS_BUILD_TOOLS=OFF -DPKSS_WERROR=$WERROR >/dev/null
 cmake --build build-tsan -j"$JOBS" --target test_contract test_hostile test_stages \
-      test_cl_first_call
-for t in test_contract test_hostile test_stages test_cl_first_call; do
+      test_cl_first_call test_nn_field
+for t in test_contract test_hostile test_stages test_cl_first_call test_nn_field; do
   TSAN_OPTIONS=halt_on_error=1 build-tsan/tests/$t > build-tsan/$t.log ||
     { cat build-tsan/$t.log; exit 1; }
 done

@@ -502,6 +502,75 @@ int pkss__kdtree_any_within(const pkss__kdtree *t, const double q[3], double max
     return md * PKSS_KD_SLACK < max_d2 && any_search(&s, &t->nodes[0], md, dists);
 }
 
+/* Every point within sqrt(max_d2) of q (inclusive), as tree positions: the
+ * search of pkss__kdtree_any_within, collecting instead of stopping. */
+typedef struct within_query {
+    const pkss__kdtree *t;
+    double q[3];
+    double max_d2;
+    size_t cap, count;
+    uint32_t *pos;
+    double *d2;
+} within_query;
+
+static void within_search(within_query *s, const kd_node *node, double mindist,
+                          double dists[3])
+{
+    const pkss__kdtree *t = s->t;
+    if (!node->left) {
+        for (uint32_t i = node->begin; i < node->end; ++i) {
+            double dd = pkss__dist2(t->pts + 3 * (size_t)i, s->q);
+            if (dd > s->max_d2)
+                continue;
+            if (s->count < s->cap) {
+                s->pos[s->count] = i;
+                s->d2[s->count] = dd;
+            }
+            ++s->count;
+        }
+        return;
+    }
+    int dim = node->dim;
+    double diff1 = s->q[dim] - node->cut_lo;
+    double diff2 = s->q[dim] - node->cut_hi;
+    const kd_node *best, *other;
+    double cut;
+    if (diff1 + diff2 < 0.0) {
+        best = &t->nodes[node->left];
+        other = &t->nodes[node->right];
+        cut = diff2 * diff2;
+    } else {
+        best = &t->nodes[node->right];
+        other = &t->nodes[node->left];
+        cut = diff1 * diff1;
+    }
+    within_search(s, best, mindist, dists);
+    double saved = dists[dim];
+    double md = mindist + cut - saved;
+    if (md * PKSS_KD_SLACK > s->max_d2)
+        return;
+    dists[dim] = cut;
+    within_search(s, other, md, dists);
+    dists[dim] = saved;
+}
+
+size_t pkss__kdtree_within(const pkss__kdtree *t, const double q[3], double max_d2,
+                           size_t cap, uint32_t *pos, double *d2)
+{
+    if (!t || !q || t->n == 0)
+        return 0;
+    within_query s = {t, {q[0], q[1], q[2]}, max_d2, cap, 0, pos, d2};
+    double dists[3];
+    double md = root_dist(t, q, dists);
+    if (!(md * PKSS_KD_SLACK > max_d2))
+        within_search(&s, &t->nodes[0], md, dists);
+    return s.count;
+}
+
+const double *pkss__kdtree_points(const pkss__kdtree *t) { return t ? t->pts : NULL; }
+
+const uint32_t *pkss__kdtree_order(const pkss__kdtree *t) { return t ? t->index : NULL; }
+
 /* Queries run in tree order (neighbouring queries touch the same nodes and
  * leaves, which keeps them in cache); results land in input order. xyz
  * must be the array the tree was built from (only checked for NULL; the

@@ -26,17 +26,20 @@ void pkss__work_counts(unsigned long out[PKSS_WORK_COUNTS])
 #define COUNT(k) ((void)0)
 #endif
 
-/* The nearest point of tree (points pts) to q within sqrt(g2), exactly as
+/* The nearest point of view v to q within sqrt(g2), exactly as
  * pkss__kdtree_nearest answers it (UINT32_MAX and *d2 = g2 if none). A
- * query remembers the ICP_MEMO_K - 1 nearest points of q0 and the distance
- * lb of the next: after q moves by |q - q0|, every point not remembered is
- * at least lb - |q - q0| away (triangle inequality), so the nearest
- * remembered one (ties to the lowest index) is still the answer when it is
- * closer than that, and none is when that is beyond the gate. */
-static uint32_t nearest_memo(const pkss__kdtree *tree, const double *pts,
-                             const double *q, double g2, pkss__nn_memo *m,
-                             size_t k, double *d2)
+ * query remembers up to ICP_MEMO_K - 1 nearest points of q0 and a distance
+ * lb within which no other point lies: after q moves by |q - q0|, every
+ * point not remembered is at least lb - |q - q0| away (triangle inequality),
+ * so the nearest remembered one (ties to the lowest index) is still the
+ * answer when it is closer than that, and none is when that is beyond the
+ * gate. A fresh query asks the view's field first (shared by every run),
+ * then the tree. */
+static uint32_t nearest_memo(const pkss__icp_view *v, const double *q, double g2,
+                             pkss__nn_memo *m, size_t k, double *d2)
 {
+    const pkss__kdtree *tree = v->tree;
+    const double *pts = v->pts;
     enum { KEEP = ICP_MEMO_K - 1 };
     COUNT(PKSS_WORK_LOOKUPS);
     if (!m->lb) { /* a single query: nothing to remember */
@@ -69,10 +72,22 @@ static uint32_t nearest_memo(const pkss__kdtree *tree, const double *pts,
         }
     }
     COUNT(m->lb[k] < 0.0 ? PKSS_WORK_FIRST : PKSS_WORK_MOVED);
+    /* the field's answer where it has one: the nearest few with the margin,
+     * or only the margin where no point lies within the gate */
+    uint32_t idx[ICP_MEMO_K];
+    double dd[ICP_MEMO_K], lb;
+    int near_got = pkss__nn_field_near(v->field, q, KEEP, idx, dd, &lb);
+    if (near_got > 0 || (near_got == 0 && lb * lb >= g2)) {
+        memcpy(q0, q, 3 * sizeof(double));
+        for (int i = 0; i < KEEP; ++i)
+            near[i] = i < near_got ? idx[i] : UINT32_MAX;
+        m->lb[k] = lb;
+        int hit = near_got > 0 && dd[0] < g2;
+        *d2 = hit ? dd[0] : g2;
+        return hit ? idx[0] : UINT32_MAX;
+    }
     /* only as far as ICP_MEMO_REACH gates: a point with no partner near
      * stops at the boxes beyond, and the reach is then its margin */
-    uint32_t idx[ICP_MEMO_K];
-    double dd[ICP_MEMO_K];
     const double reach2 = ICP_MEMO_REACH * ICP_MEMO_REACH * g2;
     size_t got = pkss__kdtree_knn_within(tree, q, ICP_MEMO_K, SIZE_MAX, reach2, idx, dd);
     memcpy(q0, q, 3 * sizeof(double));
@@ -106,14 +121,12 @@ static void lookup_range(const lookup_job *j, size_t a, size_t b)
     for (size_t i = a; i < b && i < nf; ++i) {
         double y[3];
         pkss__pose_apply(j->T, j->src->pts + 3 * i, y);
-        w->fwd[i] = nearest_memo(j->tgt->tree, j->tgt->pts, y, j->g2, &w->fwd_memo, i,
-                                 &w->fwd_d2[i]);
+        w->fwd[i] = nearest_memo(j->tgt, y, j->g2, &w->fwd_memo, i, &w->fwd_d2[i]);
     }
     for (size_t k = (a > nf ? a : nf) - nf; k + nf < b; ++k) {
         double x[3];
         pkss__pose_inverse_apply(j->T, j->tgt->pts + 3 * k, x);
-        w->bwd[k] = nearest_memo(j->src->tree, j->src->pts, x, j->g2s, &w->bwd_memo, k,
-                                 &w->bwd_d2[k]);
+        w->bwd[k] = nearest_memo(j->src, x, j->g2s, &w->bwd_memo, k, &w->bwd_d2[k]);
     }
 }
 

@@ -28,6 +28,7 @@ void pkss__icp_view_full(const pkss_cloud *c, pkss__icp_view *v)
     v->normal = c->normal;
     v->spacing = c->spacing;
     v->run = NULL;
+    v->field = NULL;
 }
 
 void pkss__icp_view_coarse(const pkss_cloud *c, pkss__icp_view *v)
@@ -38,6 +39,7 @@ void pkss__icp_view_coarse(const pkss_cloud *c, pkss__icp_view *v)
     v->normal = c->normal; /* the coarse view is a prefix of the points */
     v->spacing = c->spacing_coarse;
     v->run = NULL;
+    v->field = NULL;
 }
 
 /* The point-to-plane stage after the scale stage: mutual pairs within the

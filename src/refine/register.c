@@ -88,7 +88,9 @@ static pkss_status fail_step(pkss_context *ctx, pkss_status st)
     return st == PKSS_ERR_CANCELLED ? pkss__cancel_fail(ctx) : fail_oom(ctx);
 }
 
-/* The full and coarse views of both clouds, sharing the call's run. */
+/* The full and coarse views of both clouds, sharing the call's run and a
+ * nearest-neighbour field each (one the runs of every candidate share;
+ * without memory for it the tree answers alone). */
 static void set_views(pkss_context *ctx, const pkss_cloud *src,
                       const pkss_cloud *tgt, pkss__views *v)
 {
@@ -96,7 +98,19 @@ static void set_views(pkss_context *ctx, const pkss_cloud *src,
     pkss__icp_view_full(tgt, &v->tv);
     pkss__icp_view_coarse(src, &v->svc);
     pkss__icp_view_coarse(tgt, &v->tvc);
-    v->sv.run = v->tv.run = v->svc.run = v->tvc.run = ctx->run;
+    pkss__icp_view *all[4] = {&v->sv, &v->tv, &v->svc, &v->tvc};
+    for (int i = 0; i < 4; ++i) {
+        all[i]->run = ctx->run;
+        all[i]->field = pkss__nn_field_new(all[i]->tree, all[i]->spacing);
+    }
+}
+
+static void free_views(pkss__views *v)
+{
+    pkss__nn_field_free(v->sv.field);
+    pkss__nn_field_free(v->tv.field);
+    pkss__nn_field_free(v->svc.field);
+    pkss__nn_field_free(v->tvc.field);
 }
 
 /* One global search (SPEC 5) over ss's rotations x offsets: its scores and
@@ -361,6 +375,8 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
 done:
     pkss__search_setup_free(ss);
     pkss__free(ss);
+    if (rs)
+        free_views(&rs->v);
     pkss__free(rs);
     return st;
 }
