@@ -141,7 +141,7 @@
  * near): it ends its search's full runs */
 #define PKSS_CONTACT 0.9
 /* fit / overlap from which the winner has placed the part: the searches for
- * its place (wide, local) do not run. Below PKSS_CONTACT, as a winner beat
+ * its place (wide, local, shift) do not run. Below PKSS_CONTACT, as a winner beat
  * every refined candidate: wrong winners that a later search beat read
  * <= 0.73, scans' right ones 0.80-1.00 */
 #define PKSS_PLACED 0.85

@@ -181,8 +181,9 @@ static void test_contact_rule(void **state)
 }
 
 /* A winner that lies on the template at a ratio between PKSS_PLACED and
- * PKSS_CONTACT has placed the part (no search for its place runs), though
- * as a single candidate it would not end its search's full runs. */
+ * PKSS_CONTACT has placed the part (no search for its place runs: wide,
+ * local, shift), though as a single candidate it would not end its
+ * search's full runs. */
 static void test_placed_rule(void **state)
 {
     (void)state;
@@ -197,17 +198,25 @@ static void test_placed_rule(void **state)
     rs->ir[0].fit = between * 0.5;
     assert_false(pkss__in_contact(rs, 0));
     assert_false(pkss__part_unplaced(rs, 0));
+    assert_false(pkss__shift_wanted(rs, 0));
     /* below the placed ratio: the searches for the part's place run */
     rs->ir[0].fit = PKSS_PLACED * 0.5 - 0.01;
     assert_true(pkss__part_unplaced(rs, 0));
-    /* a part covered wholly is placed whatever the ratio */
+    assert_true(pkss__shift_wanted(rs, 0));
+    /* a part covered wholly is placed whatever the ratio; the shift search
+     * still runs while the other cloud is not covered wholly */
     rs->ir[0].cover[0] = PKSS_PART_COVERED;
     assert_false(pkss__part_unplaced(rs, 0));
+    assert_true(pkss__shift_wanted(rs, 0));
+    rs->ir[0].cover[1] = PKSS_PART_COVERED;
+    assert_false(pkss__shift_wanted(rs, 0));
+    rs->ir[0].cover[1] = 0.5;
     /* a winner not fully refined has placed nothing */
     rs->ir[0].cover[0] = 0.6;
     rs->ir[0].fit = between * 0.5;
     rs->refined[0] = 0;
     assert_true(pkss__part_unplaced(rs, 0));
+    assert_false(pkss__shift_wanted(rs, 0));
     free(rs);
 }
 

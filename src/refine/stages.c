@@ -434,10 +434,17 @@ static int shows_part(const pkss__refinement *rs, int w)
     return rs->refined[w] && fmin(r->cover[0], r->cover[1]) < PKSS_PART_COVERED;
 }
 
+/* A part held on the wrong walls lies near them, not on them: a placed
+ * winner has no other place to search for (PKSS_PLACED). */
+int pkss__shift_wanted(const pkss__refinement *rs, int w)
+{
+    return shows_part(rs, w) && !lies_on(rs, w, PKSS_PLACED);
+}
+
 pkss_status pkss__stage_shift(pkss__refinement *rs, int w, size_t *added)
 {
     *added = 0;
-    if (!shows_part(rs, w))
+    if (!pkss__shift_wanted(rs, w))
         return PKSS_OK;
     pkss__pose starts[PKSS_SHIFT_TRIALS];
     size_t room = PKSS_MAX_CANDIDATES - rs->n, n = 0;

@@ -104,9 +104,12 @@ int pkss__in_contact(const pkss__refinement *rs, int w);
  * overlap; the winner of every refined candidate, so a lower ratio than
  * one candidate's contact needs). */
 int pkss__part_unplaced(const pkss__refinement *rs, int w);
-/* The shift search on winner w when it does not cover both clouds: up to
- * PKSS_SHIFT_TRIALS translations of it that land more points (shift_search.c)
- * become candidates (*added of them, appended) and get full runs. */
+/* Whether the shift search runs on winner w: it is refined, does not cover
+ * both clouds, and has not placed the part (fit < PKSS_PLACED x overlap). */
+int pkss__shift_wanted(const pkss__refinement *rs, int w);
+/* The shift search on winner w where it is wanted: up to PKSS_SHIFT_TRIALS
+ * translations of it that land more points (shift_search.c) become
+ * candidates (*added of them, appended) and get full runs. */
 pkss_status pkss__stage_shift(pkss__refinement *rs, int w, size_t *added);
 /* The slide search on winner w when it does not cover both clouds. */
 pkss_status pkss__stage_slide(pkss__refinement *rs, int w);
