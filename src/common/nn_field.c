@@ -4,13 +4,14 @@
  * same clouds, and each run's fresh kd-tree queries would repeat the same
  * searches.
  *
- * Space is cut into cubes of PKSS_FIELD_CELL spacings; the first query that
- * lands in a cube builds its list: every point within d_1 + 2 rho of its
- * centre (d_1 the centre's nearest distance, rho the cube's half-diagonal),
- * which holds the nearest point of every location in the cube, sorted by
- * distance from the centre. A query reads the list in that order and stops
- * once the rest lie farther than what it needs. Cubes far from every point
- * keep only d_1, a lower bound on every distance from them.
+ * Space is cut into cubes of PKSS_FIELD_CELL spacings; the second query that
+ * lands in a cube builds its list (a cube asked once would not repay it):
+ * every point within d_1 + 2 rho of its centre (d_1 the centre's nearest
+ * distance, rho the cube's half-diagonal), which holds the nearest point of
+ * every location in the cube, sorted by distance from the centre. A query
+ * reads the list in that order and stops once the rest lie farther than
+ * what it needs. Cubes farther than PKSS_FIELD_FAR sides from every point
+ * keep only that distance, a lower bound on every distance from them.
  *
  * Answers are checked at query time, not assumed from the geometry: the
  * nearest is reported only when it lies strictly closer than the bound on
