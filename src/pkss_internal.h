@@ -215,7 +215,7 @@ const uint32_t *pkss__kdtree_order(const pkss__kdtree *tree);
 pkss_status pkss__knn_all(const pkss__kdtree *tree, const double *xyz,
                           size_t n, size_t k, uint32_t *idx, double *d2);
 
-/* Exact nearest neighbours by cells of space, built as queries arrive and
+/* Exact nearest neighbours by cubes of space, built as queries arrive and
  * shared by the threads of a call (nn_field.c). NULL from _new where memory
  * is short: callers then ask the tree. */
 typedef struct pkss__nn_field pkss__nn_field;

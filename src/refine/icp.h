@@ -23,7 +23,7 @@ typedef struct pkss__icp_view {
     const double *normal; /* unit normal at each point (cloud.c) */
     double spacing;  /* median NN spacing h of this view */
     pkss__run *run;  /* the call's cancellation state and helper, or NULL */
-    pkss__nn_field *field; /* the tree's answers by cells, or NULL */
+    pkss__nn_field *field; /* the tree's answers by cubes of space, or NULL */
 } pkss__icp_view;
 
 void pkss__icp_view_full(const pkss_cloud *c, pkss__icp_view *v);

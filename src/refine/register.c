@@ -88,9 +88,9 @@ static pkss_status fail_step(pkss_context *ctx, pkss_status st)
     return st == PKSS_ERR_CANCELLED ? pkss__cancel_fail(ctx) : fail_oom(ctx);
 }
 
-/* The full and coarse views of both clouds, sharing the call's run and a
- * nearest-neighbour field each (one the runs of every candidate share;
- * without memory for it the tree answers alone). */
+/* The full and coarse views of both clouds, sharing the call's run, each
+ * with a nearest-neighbour field that the runs of every candidate share
+ * (without memory for one, the view's tree answers alone). */
 static void set_views(pkss_context *ctx, const pkss_cloud *src,
                       const pkss_cloud *tgt, pkss__views *v)
 {

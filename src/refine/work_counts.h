@@ -9,8 +9,9 @@
 enum pkss__work_count {
     PKSS_WORK_LOOKUPS = 0, /* nearest-partner lookups of the correspondences */
     PKSS_WORK_SINGLE,      /* ... answered by a lone kd-tree query (no memo) */
-    PKSS_WORK_FIRST,       /* ... by a kd-tree query, the memo empty (a run's first pass) */
-    PKSS_WORK_MOVED,       /* ... by a kd-tree query, the point moved past its margin */
+    PKSS_WORK_FIRST,       /* ... by a fresh query (the view's field, else the kd-tree),
+                            * the memo empty (a run's first pass) */
+    PKSS_WORK_MOVED,       /* ... by a fresh query, the point moved past its margin */
     PKSS_WORK_COUNTS
 };
 
