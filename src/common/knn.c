@@ -290,6 +290,25 @@ static void knn_leaf(knn_query *s, const kd_node *node)
     }
 }
 
+/* The child of inner node on q's side (*near) and the other (*far), and the
+ * squared distance from q to the far child's side of the split gap. */
+static inline double split_children(const pkss__kdtree *t, const kd_node *node,
+                                    const double *q, const kd_node **near,
+                                    const kd_node **far)
+{
+    const int dim = node->dim;
+    const double diff1 = q[dim] - node->cut_lo;
+    const double diff2 = q[dim] - node->cut_hi;
+    if (diff1 + diff2 < 0.0) {
+        *near = &t->nodes[node->left];
+        *far = &t->nodes[node->right];
+        return diff2 * diff2;
+    }
+    *near = &t->nodes[node->right];
+    *far = &t->nodes[node->left];
+    return diff1 * diff1;
+}
+
 /* mindist: squared distance from q to the cell of node, as the sum of the
  * per-axis parts in dists[]. */
 static void knn_search(knn_query *s, const kd_node *node, double mindist,
@@ -299,21 +318,9 @@ static void knn_search(knn_query *s, const kd_node *node, double mindist,
         knn_leaf(s, node);
         return;
     }
-    const kd_node *nodes = s->t->nodes;
-    int dim = node->dim;
-    double diff1 = s->q[dim] - node->cut_lo;
-    double diff2 = s->q[dim] - node->cut_hi;
+    const int dim = node->dim;
     const kd_node *best, *other;
-    double cut;
-    if (diff1 + diff2 < 0.0) {
-        best = &nodes[node->left];
-        other = &nodes[node->right];
-        cut = diff2 * diff2;
-    } else {
-        best = &nodes[node->right];
-        other = &nodes[node->left];
-        cut = diff1 * diff1;
-    }
+    const double cut = split_children(s->t, node, s->q, &best, &other);
     knn_search(s, best, mindist, dists);
     double saved = dists[dim];
     double md = mindist + cut - saved;
@@ -401,20 +408,9 @@ static void nn_search(nn_query *s, const kd_node *node, double mindist,
         }
         return;
     }
-    int dim = node->dim;
-    double diff1 = s->q[dim] - node->cut_lo;
-    double diff2 = s->q[dim] - node->cut_hi;
+    const int dim = node->dim;
     const kd_node *best, *other;
-    double cut;
-    if (diff1 + diff2 < 0.0) {
-        best = &t->nodes[node->left];
-        other = &t->nodes[node->right];
-        cut = diff2 * diff2;
-    } else {
-        best = &t->nodes[node->right];
-        other = &t->nodes[node->left];
-        cut = diff1 * diff1;
-    }
+    const double cut = split_children(t, node, s->q, &best, &other);
     nn_search(s, best, mindist, dists);
     double saved = dists[dim];
     double md = mindist + cut - saved;
@@ -466,20 +462,9 @@ static int any_search(const any_query *s, const kd_node *node, double mindist,
                 return 1;
         return 0;
     }
-    int dim = node->dim;
-    double diff1 = s->q[dim] - node->cut_lo;
-    double diff2 = s->q[dim] - node->cut_hi;
+    const int dim = node->dim;
     const kd_node *best, *other;
-    double cut;
-    if (diff1 + diff2 < 0.0) {
-        best = &t->nodes[node->left];
-        other = &t->nodes[node->right];
-        cut = diff2 * diff2;
-    } else {
-        best = &t->nodes[node->right];
-        other = &t->nodes[node->left];
-        cut = diff1 * diff1;
-    }
+    const double cut = split_children(t, node, s->q, &best, &other);
     if (any_search(s, best, mindist, dists))
         return 1;
     double saved = dists[dim];
@@ -530,20 +515,9 @@ static void within_search(within_query *s, const kd_node *node, double mindist,
         }
         return;
     }
-    int dim = node->dim;
-    double diff1 = s->q[dim] - node->cut_lo;
-    double diff2 = s->q[dim] - node->cut_hi;
+    const int dim = node->dim;
     const kd_node *best, *other;
-    double cut;
-    if (diff1 + diff2 < 0.0) {
-        best = &t->nodes[node->left];
-        other = &t->nodes[node->right];
-        cut = diff2 * diff2;
-    } else {
-        best = &t->nodes[node->right];
-        other = &t->nodes[node->left];
-        cut = diff1 * diff1;
-    }
+    const double cut = split_children(t, node, s->q, &best, &other);
     within_search(s, best, mindist, dists);
     double saved = dists[dim];
     double md = mindist + cut - saved;
