@@ -26,6 +26,23 @@ void pkss__work_counts(unsigned long out[PKSS_WORK_COUNTS])
 #define COUNT(k) ((void)0)
 #endif
 
+/* Stores what a fresh query from q proved for point k of memo m (its got
+ * nearest, idx/dd, and the margin lb) and returns its answer within the
+ * gate (UINT32_MAX and *d2 = g2 if none). */
+static uint32_t remember(pkss__nn_memo *m, size_t k, const double *q, const uint32_t *idx,
+                         const double *dd, size_t got, double lb, double g2, double *d2)
+{
+    enum { KEEP = ICP_MEMO_K - 1 };
+    uint32_t *near = m->near + KEEP * k;
+    memcpy(m->q0 + 3 * k, q, 3 * sizeof(double));
+    for (size_t i = 0; i < KEEP; ++i)
+        near[i] = i < got ? idx[i] : UINT32_MAX;
+    m->lb[k] = lb;
+    int hit = got > 0 && dd[0] < g2;
+    *d2 = hit ? dd[0] : g2;
+    return hit ? idx[0] : UINT32_MAX;
+}
+
 /* The nearest point of view v to q within sqrt(g2), exactly as
  * pkss__kdtree_nearest answers it (UINT32_MAX and *d2 = g2 if none). A
  * query remembers up to ICP_MEMO_K - 1 nearest points of q0 and a distance
@@ -77,28 +94,16 @@ static uint32_t nearest_memo(const pkss__icp_view *v, const double *q, double g2
     uint32_t idx[ICP_MEMO_K];
     double dd[ICP_MEMO_K], lb;
     int near_got = pkss__nn_field_near(v->field, q, KEEP, idx, dd, &lb);
-    if (near_got > 0 || (near_got == 0 && lb * lb >= g2)) {
-        memcpy(q0, q, 3 * sizeof(double));
-        for (int i = 0; i < KEEP; ++i)
-            near[i] = i < near_got ? idx[i] : UINT32_MAX;
-        m->lb[k] = lb;
-        int hit = near_got > 0 && dd[0] < g2;
-        *d2 = hit ? dd[0] : g2;
-        return hit ? idx[0] : UINT32_MAX;
-    }
+    if (near_got > 0 || (near_got == 0 && lb * lb >= g2))
+        return remember(m, k, q, idx, dd, (size_t)near_got, lb, g2, d2);
     /* only as far as ICP_MEMO_REACH gates: a point with no partner near
      * stops at the boxes beyond, and the reach is then its margin */
     const double reach2 = ICP_MEMO_REACH * ICP_MEMO_REACH * g2;
     size_t got = pkss__kdtree_knn_within(tree, q, ICP_MEMO_K, SIZE_MAX, reach2, idx, dd);
-    memcpy(q0, q, 3 * sizeof(double));
-    for (size_t i = 0; i < KEEP; ++i)
-        near[i] = i < got ? idx[i] : UINT32_MAX;
-    m->lb[k] = got == ICP_MEMO_K              ? sqrt(dd[KEEP])
-               : got == pkss__kdtree_size(tree) ? INFINITY
-                                                : sqrt(reach2);
-    int hit = got > 0 && dd[0] < g2;
-    *d2 = hit ? dd[0] : g2;
-    return hit ? idx[0] : UINT32_MAX;
+    lb = got == ICP_MEMO_K                ? sqrt(dd[KEEP])
+         : got == pkss__kdtree_size(tree) ? INFINITY
+                                          : sqrt(reach2);
+    return remember(m, k, q, idx, dd, got < KEEP ? got : KEEP, lb, g2, d2);
 }
 
 /* One pass's lookups, forward [0, src->m) then backward, claimed in chunks
