@@ -57,16 +57,41 @@ static void test_basins_skip_own_and_bound(void **state)
     assert_non_null(b);
     const double h = 0.01;
     pkss__pose p = pose_at(10.0, 1.0, 0.0), q = pose_at(11.0, 1.0, 0.0);
-    pkss__basins_add(b, &p, 7);
-    assert_int_equal(pkss__basins_find(b, &q, h, 3), 7);
-    assert_int_equal(pkss__basins_find(b, &q, h, 7), -1); /* its own minimum */
+    pkss__basins_add(b, &p, 7, 0.5);
+    assert_int_equal(pkss__basins_find(b, &q, h, 3, 0.0), 7);
+    assert_int_equal(pkss__basins_find(b, &q, h, 7, 0.0), -1); /* its own minimum */
     pkss__pose far = pose_at(40.0, 1.0, 0.0);
-    assert_int_equal(pkss__basins_find(b, &far, h, 3), -1);
+    assert_int_equal(pkss__basins_find(b, &far, h, 3, 0.0), -1);
     int cap = (int)(sizeof b->owner / sizeof *b->owner);
     for (int k = 0; k < cap + 5; ++k)
-        pkss__basins_add(b, &far, k);
+        pkss__basins_add(b, &far, k, 0.0);
     assert_int_equal(b->n, cap);
-    pkss__basins_add(NULL, &far, 1); /* no table: nothing recorded */
+    pkss__basins_add(NULL, &far, 1, 0.0); /* no table: nothing recorded */
+    free(b);
+}
+
+/* The minimum of an abandoned run stands only for runs judged at least as
+ * strictly: a later search's run, judged by a lower bar, goes on. */
+static void test_abandoned_basins(void **state)
+{
+    (void)state;
+    pkss__basins *b = calloc(1, sizeof *b);
+    assert_non_null(b);
+    const double h = 0.01;
+    pkss__pose p = pose_at(10.0, 1.0, 0.0), q = pose_at(11.0, 1.0, 0.0);
+    pkss__pose p5 = pose_at(60.0, 1.0, 0.0), q5 = pose_at(60.5, 1.0, 0.0);
+    pkss__basins_add(b, &p, 4, 0.7);
+    pkss__basins_add(b, &p5, 5, 0.7);
+    /* while run 4 goes on (or ended refined), any run stops in its minimum */
+    assert_int_equal(pkss__basins_find(b, &q, h, 9, 0.0), 4);
+    pkss__basins_abandon(b, 4);
+    assert_int_equal(pkss__basins_find(b, &q, h, 9, 0.7), 4);
+    assert_int_equal(pkss__basins_find(b, &q, h, 9, 0.8), 4);
+    assert_int_equal(pkss__basins_find(b, &q, h, 9, 0.69), -1);
+    assert_int_equal(pkss__basins_find(b, &q, h, 9, -1.0), -1); /* no bar stops it */
+    /* run 5's minimum is not marked */
+    assert_int_equal(pkss__basins_find(b, &q5, h, 9, 0.0), 5);
+    pkss__basins_abandon(NULL, 4); /* no table: nothing to mark */
     free(b);
 }
 
@@ -251,6 +276,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_same_basin_tolerances),
         cmocka_unit_test(test_basins_skip_own_and_bound),
+        cmocka_unit_test(test_abandoned_basins),
         cmocka_unit_test(test_full_run_choice),
         cmocka_unit_test(test_winner_rule),
         cmocka_unit_test(test_contact_rule),

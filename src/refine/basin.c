@@ -21,19 +21,28 @@ int pkss__same_basin(const pkss__pose *a, const pkss__pose *b, double h,
 }
 
 int pkss__basins_find(const pkss__basins *b, const pkss__pose *T, double h,
-                      int not_owner)
+                      int not_owner, double bar)
 {
     for (int k = 0; k < b->n; ++k)
-        if (b->owner[k] != not_owner &&
+        if (b->owner[k] != not_owner && (!b->abandoned[k] || bar >= b->bar[k]) &&
             pkss__same_basin(T, &b->pose[k], h, &pkss__run_basin))
             return b->owner[k];
     return -1;
 }
 
-void pkss__basins_add(pkss__basins *b, const pkss__pose *T, int id)
+void pkss__basins_add(pkss__basins *b, const pkss__pose *T, int id, double bar)
 {
     if (!b || b->n >= (int)(sizeof b->owner / sizeof *b->owner))
         return;
     b->pose[b->n] = *T;
-    b->owner[b->n++] = id;
+    b->owner[b->n] = id;
+    b->bar[b->n] = bar;
+    b->abandoned[b->n++] = 0;
+}
+
+void pkss__basins_abandon(pkss__basins *b, int id)
+{
+    for (int k = 0; b && k < b->n; ++k)
+        if (b->owner[k] == id)
+            b->abandoned[k] = 1;
 }

@@ -121,6 +121,8 @@ static int abandon_scored(icp_state *r)
 {
     r->beats_fit = r->stops.fit_bar > 0.0 && r->out->fit > r->stops.fit_bar;
     r->out->abandoned = !r->beats_fit;
+    if (r->out->abandoned)
+        pkss__basins_abandon(r->stops.basins, r->stops.id);
     return r->out->abandoned;
 }
 
@@ -191,7 +193,8 @@ static int iterate(icp_state *r, int stage)
     if (track_overlap(r, stage, &prev, gate_used, change, scale_moving, &stagnant))
         return ++r->it, ITER_RUN_DONE;
     if (r->stops.basins && at_floor) {
-        r->out->duplicate_of = pkss__basins_find(r->stops.basins, &r->T, r->h, r->stops.id);
+        r->out->duplicate_of = pkss__basins_find(r->stops.basins, &r->T, r->h, r->stops.id,
+                                                 r->beats_fit ? -1.0 : r->stops.scale_bar);
         if (r->out->duplicate_of >= 0)
             return ++r->it, ITER_RUN_DONE;
     }
@@ -231,7 +234,7 @@ static int rigid_stage(icp_state *r, pkss_status *st)
         if (r->out->overlap < r->stops.rigid_bar && abandon_scored(r))
             return ITER_RUN_DONE;
     }
-    pkss__basins_add(r->stops.basins, &r->T, r->stops.id);
+    pkss__basins_add(r->stops.basins, &r->T, r->stops.id, r->stops.scale_bar);
     return ITER_GO;
 }
 
@@ -259,7 +262,7 @@ static void finish(icp_state *r)
     pkss__icp_result *out = r->out;
     if (!out->abandoned && out->duplicate_of < 0) {
         /* a run that reaches this pose would take the same plane steps */
-        pkss__basins_add(r->stops.basins, &r->T, r->stops.id);
+        pkss__basins_add(r->stops.basins, &r->T, r->stops.id, r->stops.scale_bar);
         if (r->sched->plane_iters > 0)
             r->it += pkss__plane_stage(r->src, r->tgt, r->sched->plane_iters,
                                        &r->w, &r->T, &out->overlap_unpolished);

@@ -53,10 +53,13 @@ extern const pkss__icp_schedule pkss__schedule_coarse, pkss__schedule_full,
     pkss__schedule_settle, pkss__schedule_polish;
 
 /* Minima reached by runs (the end of each rigid stage and each final
- * pose), with the id of the run that found each. */
+ * pose), with the id of the run that found each, the scale bar that run
+ * faced, and whether a bar then stopped it (abandoned). */
 typedef struct pkss__basins {
     pkss__pose pose[2 * PKSS_MAX_CANDIDATES];
     int owner[2 * PKSS_MAX_CANDIDATES];
+    double bar[2 * PKSS_MAX_CANDIDATES];
+    int abandoned[2 * PKSS_MAX_CANDIDATES];
     int n;
 } pkss__basins;
 
@@ -72,11 +75,17 @@ extern const pkss__basin_tol pkss__start_basin, pkss__run_basin;
 int pkss__same_basin(const pkss__pose *a, const pkss__pose *b, double h,
                      const pkss__basin_tol *tol);
 /* The owner of a basin of b (not owned by `not_owner`) that T lies in
- * (pkss__run_basin), or -1. */
+ * (pkss__run_basin) and that stands for a run judged by `bar` (a scale
+ * bar; -1: none may stop it), or -1. A basin whose run was abandoned only
+ * stands for runs judged at least as strictly: a later search's bar is its
+ * own leader's, and from there a run may reach what the first could not. */
 int pkss__basins_find(const pkss__basins *b, const pkss__pose *T, double h,
-                      int not_owner);
-/* Records T as a minimum of run id (b may be NULL; a full table drops it). */
-void pkss__basins_add(pkss__basins *b, const pkss__pose *T, int id);
+                      int not_owner, double bar);
+/* Records T as a minimum of run id, judged by scale bar `bar` (b may be
+ * NULL; a full table drops it). */
+void pkss__basins_add(pkss__basins *b, const pkss__pose *T, int id, double bar);
+/* Marks the minima of run id as those of an abandoned run. */
+void pkss__basins_abandon(pkss__basins *b, int id);
 
 /* Stop rules a caller puts on a run (all optional: NULL stops = none).
  * A bar is an overlap a stage must be able to reach: a rigid stage that
