@@ -288,6 +288,8 @@ static inline void pkss__mat3_apply(const double *A, const double *x, double *y)
     y[1] = r1;
     y[2] = r2;
 }
+/* The value of rank r (0-based, r < n) in v[0, n); reorders v. */
+double pkss__select_value(double *v, size_t n, size_t r);
 /* Squared distance between two 3-vectors (kd-tree and ICP hot loops). */
 static inline double pkss__dist2(const double *a, const double *b)
 {

@@ -274,15 +274,21 @@ static void knn_leaf(knn_query *s, const kd_node *node)
         }
         return;
     }
-    /* a point farther than a full list's last (or the bound) cannot enter
-     * it, whatever its index: most points of a leaf stop at this one
-     * comparison */
+    /* the leaf's distances first, in a loop without branches that the
+     * compiler vectorises; then a point farther than a full list's last (or
+     * the bound) cannot enter it, whatever its index: most points of a leaf
+     * stop at this one comparison */
+    double dist[PKSS_KD_LEAF];
+    const uint32_t b = node->begin, n = node->end - b;
+    const double *p = t->pts + 3 * (size_t)b;
+    for (uint32_t i = 0; i < n; ++i)
+        dist[i] = pkss__dist2(p + 3 * (size_t)i, s->q);
     double worst = list_bound(s);
-    for (uint32_t i = node->begin; i < node->end; ++i) {
-        double dd = pkss__dist2(t->pts + 3 * (size_t)i, s->q);
+    for (uint32_t i = 0; i < n; ++i) {
+        double dd = dist[i];
         if (dd > worst)
             continue;
-        uint32_t ix = t->index[i];
+        uint32_t ix = t->index[b + i];
         if (ix == s->skip || !list_insert(s, dd, ix))
             continue;
         if (s->count == s->k)

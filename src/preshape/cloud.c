@@ -73,12 +73,6 @@ static void covariance(const double *xyz, size_t n, double *mean, double *w,
     covariance_within(xyz, n, NULL, 0.0, mean, w, V);
 }
 
-static int cmp_dbl(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
 /* The median point (coordinate-wise) and the median distance to it, on an
  * evenly spaced sample; 0 when out of memory (the caller then judges all
  * points). */
@@ -91,16 +85,14 @@ static int median_core(const double *xyz, size_t n, double c[3], double *radius)
     for (int d = 0; d < 3; ++d) {
         for (size_t i = 0; i < k; ++i)
             v[i] = xyz[3 * (i * n / k) + d];
-        qsort(v, k, sizeof(double), cmp_dbl);
-        c[d] = v[k / 2];
+        c[d] = pkss__select_value(v, k, k / 2);
     }
     for (size_t i = 0; i < k; ++i) {
         const double *q = xyz + 3 * (i * n / k);
         v[i] = sqrt((q[0] - c[0]) * (q[0] - c[0]) + (q[1] - c[1]) * (q[1] - c[1]) +
                     (q[2] - c[2]) * (q[2] - c[2]));
     }
-    qsort(v, k, sizeof(double), cmp_dbl);
-    *radius = v[k / 2];
+    *radius = pkss__select_value(v, k, k / 2);
     pkss__free(v);
     return 1;
 }
@@ -246,23 +238,25 @@ static size_t compact(double *pts, size_t n, const unsigned char *keep)
     return k;
 }
 
-typedef struct dsort {
-    double d;
-    uint32_t i;
-} dsort;
-
-static int cmp_desc(const void *a, const void *b)
+/* The nf points of largest d (ties to the lower index), in index order,
+ * into feat; scratch holds m doubles. */
+static void top_by_value(const double *d, size_t m, size_t nf, double *scratch,
+                         uint32_t *feat)
 {
-    const dsort *x = a, *y = b;
-    if (x->d > y->d) return -1;
-    if (x->d < y->d) return 1;
-    return (x->i > y->i) - (x->i < y->i);
-}
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
+    memcpy(scratch, d, m * sizeof(double));
+    double cut = pkss__select_value(scratch, m, m - nf);
+    size_t above = 0;
+    for (size_t i = 0; i < m; ++i)
+        above += d[i] > cut;
+    size_t at_cut = nf - above, k = 0;
+    for (size_t i = 0; i < m; ++i) {
+        if (d[i] > cut) {
+            feat[k++] = (uint32_t)i;
+        } else if (d[i] == cut && at_cut > 0) {
+            feat[k++] = (uint32_t)i;
+            --at_cut;
+        }
+    }
 }
 
 /* Sec. 4: D_pca(p) = distance of p to the least-squares plane of its 12
@@ -275,7 +269,7 @@ static pkss_status features_and_spacing(pkss_cloud *c, double frac,
     size_t m = c->m, k = m - 1 < PKSS_KNN_K ? m - 1 : PKSS_KNN_K;
     uint32_t *idx = pkss__malloc(m * k * sizeof(uint32_t));
     double *d2 = pkss__malloc(m * k * sizeof(double));
-    dsort *ds = pkss__malloc(m * sizeof(dsort));
+    double *ds = pkss__malloc(m * sizeof(double));
     double *nn = pkss__malloc(m * sizeof(double));
     c->normal = pkss__malloc(3 * m * sizeof(double));
     if (!idx || !d2 || !ds || !nn || !c->normal) {
@@ -298,14 +292,11 @@ static pkss_status features_and_spacing(pkss_cloud *c, double frac,
         /* normal = eigenvector of the smallest eigenvalue (column 2) */
         double dist = (p[0] - mean[0]) * V[2] + (p[1] - mean[1]) * V[5] +
                       (p[2] - mean[2]) * V[8];
-        ds[i].d = fabs(dist);
-        ds[i].i = (uint32_t)i;
+        ds[i] = fabs(dist);
         for (int d = 0; d < 3; ++d)
             c->normal[3 * i + d] = V[3 * d + 2];
     }
-    qsort(nn, m, sizeof(double), cmp_double);
-    c->spacing = nn[m / 2];
-    qsort(ds, m, sizeof(dsort), cmp_desc);
+    c->spacing = pkss__select_value(nn, m, m / 2);
     size_t nf = (size_t)ceil(frac * (double)m);
     /* G_f needs PKSS_MIN_MATCHED matched cells (Eq. 7_3), so as many feature
      * points at least: fewer would void every candidate. */
@@ -316,18 +307,8 @@ static pkss_status features_and_spacing(pkss_cloud *c, double frac,
         pkss__free(idx); pkss__free(d2); pkss__free(ds); pkss__free(nn);
         return PKSS_ERR_OUT_OF_MEMORY;
     }
-    for (size_t i = 0; i < nf; ++i)
-        c->feat[i] = ds[i].i;
-    /* keep feature order by point index: deterministic and cache friendly */
-    for (size_t i = 1; i < nf; ++i) {
-        uint32_t v = c->feat[i];
-        size_t j = i;
-        while (j > 0 && c->feat[j - 1] > v) {
-            c->feat[j] = c->feat[j - 1];
-            --j;
-        }
-        c->feat[j] = v;
-    }
+    /* in point index order: deterministic and cache friendly */
+    top_by_value(ds, m, nf, nn, c->feat);
     c->n_feat = nf;
     pkss__free(idx); pkss__free(d2); pkss__free(ds); pkss__free(nn);
     return PKSS_OK;
@@ -350,8 +331,7 @@ static pkss_status coarse_level(pkss_cloud *c)
         pkss__kdtree_knn(c->tree_coarse, c->pre + 3 * i, 1, i, &j, &d2);
         nn[i] = sqrt(d2);
     }
-    qsort(nn, c->m_coarse, sizeof(double), cmp_double);
-    c->spacing_coarse = nn[c->m_coarse / 2];
+    c->spacing_coarse = pkss__select_value(nn, c->m_coarse, c->m_coarse / 2);
     pkss__free(nn);
     return PKSS_OK;
 }

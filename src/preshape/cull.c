@@ -217,45 +217,6 @@ pkss_status pkss__cull_mutual(const double *xyz, size_t n, size_t k,
 
 /* -------------------------------------------------------- statistical */
 
-/* Value of rank r (0-based) in v[0, n); reorders v (Hoare quickselect). */
-static double select_value(double *v, size_t n, size_t r)
-{
-    size_t lo = 0, hi = n - 1;
-    while (lo < hi) {
-        size_t mid = lo + (hi - lo) / 2;
-        double a = v[lo], b = v[mid], c = v[hi];
-        double pivot = (a < b) ? ((b < c) ? b : (a < c ? c : a))
-                               : ((a < c) ? a : (b < c ? c : b));
-        size_t i = lo, j = hi;
-        for (;;) {
-            while (v[i] < pivot)
-                ++i;
-            while (v[j] > pivot)
-                --j;
-            if (i >= j)
-                break;
-            double t = v[i];
-            v[i] = v[j];
-            v[j] = t;
-            ++i;
-            --j;
-        }
-        if (i == j) { /* v[i] == pivot, in its final place */
-            if (r == i)
-                return v[i];
-            if (r < i)
-                hi = i - 1;
-            else
-                lo = i + 1;
-        } else if (r <= j) {
-            hi = j;
-        } else {
-            lo = j + 1;
-        }
-    }
-    return v[r];
-}
-
 /* Principal axes of the cloud as the columns of V (row-major); the
  * coordinate axes if the covariance is not finite. */
 static void principal_axes(const double *xyz, size_t n, double *V)
@@ -297,8 +258,8 @@ static double box_density(const double *xyz, size_t n, const double *A,
             const double *p = xyz + 3 * i;
             buf[i] = p[0] * A[d] + p[1] * A[3 + d] + p[2] * A[6 + d];
         }
-        double qlo = select_value(buf, n, rlo);
-        double qhi = select_value(buf, n, rhi);
+        double qlo = pkss__select_value(buf, n, rlo);
+        double qhi = pkss__select_value(buf, n, rhi);
         side[d] = qhi - qlo;
         if (side[d] > longest)
             longest = side[d];
@@ -359,7 +320,7 @@ static int stands_out(double *buf, size_t n, double r2, double lambda)
             buf[m++] = buf[i];
     if (m == 0)
         return 0;
-    double r = sqrt(select_value(buf, m, m / 2));
+    double r = sqrt(pkss__select_value(buf, m, m / 2));
     return r * r * r <= r3_of_density(PKSS_KNN_K, STAT_BG_CONTRAST * lambda);
 }
 

@@ -776,7 +776,9 @@ def _as_points(obj: Any, what: str, finite: bool = True) -> np.ndarray:
         raise _invalid("%s: the array is empty, shape %s" % (what, a.shape),
                        lib.PKSS_ERR_EMPTY_INPUT)
     a = np.ascontiguousarray(a, dtype=np.float64)
-    if finite:
+    # a NaN or an infinity makes the sum non-finite, so a finite sum proves
+    # every row finite in one pass; a sum that overflows is checked row by row
+    if finite and not np.isfinite(np.add.reduce(a, axis=None)):
         ok = np.isfinite(a).all(axis=1)
         if not ok.all():
             bad = np.flatnonzero(~ok)
