@@ -231,6 +231,11 @@ void pkss__nn_field_free(pkss__nn_field *field);
  * answer: ask the tree. */
 int pkss__nn_field_near(pkss__nn_field *field, const double q[3], int keep,
                         uint32_t *idx, double *d2, double *lb);
+/* Builds the lists of the cubes that pts[0..n) lie in, ahead of their
+ * queries (field may be NULL), until *stop is set; returns how many. Other
+ * threads may query the field meanwhile. */
+size_t pkss__nn_field_warm(pkss__nn_field *field, const double *pts, size_t n,
+                           const atomic_int *stop);
 
 /* ------------------------------------------------------- preprocessing */
 /* Each step takes an array of n points (double xyz) and writes a keep mask

@@ -10,7 +10,9 @@
  * with queries near the surface and far from it; with two threads sharing
  * one field; and with a table and pool too small for the queries, where it
  * must still answer correctly or decline. A cube's first query is declined
- * (its list is built on the second), so each query is asked twice.
+ * (its list is built on the second), so each query is asked twice, unless
+ * the field was warmed (its lists built ahead for a cloud's points), also
+ * while another thread queries it.
  */
 #include "support.h"
 
@@ -244,6 +246,91 @@ static void test_threads_share_a_field(void **state)
     free(x);
 }
 
+/* A field warmed with the cloud's own points answers a near query on its
+ * first sight (the list is built ahead), correctly; a stop already set
+ * builds nothing. */
+static void test_warm_builds_ahead(void **state)
+{
+    (void)state;
+    pkss_test_rng rng = {g_seed ^ 0x3a3au};
+    const size_t n = 2000;
+    double spacing;
+    double *x = make_cloud(&rng, SPHERE, n, &spacing);
+    pkss__kdtree *t = NULL;
+    assert_int_equal(pkss__kdtree_build(x, n, &t), PKSS_OK);
+    pkss__nn_field *f = pkss__nn_field_new(t, spacing);
+    assert_non_null(f);
+    atomic_int stop;
+    atomic_init(&stop, 1);
+    assert_int_equal(pkss__nn_field_warm(f, x, n, &stop), 0);
+    atomic_store(&stop, 0);
+    size_t built = pkss__nn_field_warm(f, x, n, &stop);
+    assert_true(built > 0);
+    assert_int_equal(pkss__nn_field_warm(f, x, n, &stop), 0); /* all built already */
+    assert_int_equal(pkss__nn_field_warm(NULL, x, n, &stop), 0);
+    size_t first = 0;
+    for (size_t i = 0; i < n; i += 7) {
+        double d2[KEEP], lb;
+        uint32_t idx[KEEP];
+        int got = pkss__nn_field_near(f, x + 3 * i, KEEP, idx, d2, &lb);
+        first += (size_t)check_answer(x, n, x + 3 * i, got, idx, d2, lb, "warm");
+    }
+    printf("warm: %zu cubes built, %zu of %zu first queries answered\n", built, first,
+           (n + 6) / 7);
+    assert_true(first >= (n + 6) / 7 * 9 / 10);
+    pkss__nn_field_free(f);
+    pkss__kdtree_free(t);
+    free(x);
+}
+
+/* One thread warms a field while another queries it (as the helper warms
+ * while a search runs, and the refinement may start before it stops):
+ * every answer stays exact. */
+typedef struct warm_job {
+    pkss__nn_field *f;
+    const double *x;
+    size_t n;
+    atomic_int stop;
+} warm_job;
+
+static void *warm_worker(void *arg)
+{
+    warm_job *j = arg;
+    pkss__nn_field_warm(j->f, j->x, j->n, &j->stop);
+    return NULL;
+}
+
+static void test_warm_while_queried(void **state)
+{
+    (void)state;
+    pkss_test_rng rng = {g_seed ^ 0x7e7eu};
+    const size_t n = 2000, n_queries = 600;
+    double spacing;
+    double *x = make_cloud(&rng, SPHERE, n, &spacing);
+    double *queries = malloc(3 * n_queries * sizeof(double));
+    assert_non_null(queries);
+    for (size_t j = 0; j < n_queries; ++j)
+        make_query(&rng, x, n, spacing, j % 4 == 0, queries + 3 * j);
+    pkss__kdtree *t = NULL;
+    assert_int_equal(pkss__kdtree_build(x, n, &t), PKSS_OK);
+    pkss__nn_field *f = pkss__nn_field_new(t, spacing);
+    assert_non_null(f);
+    warm_job w = {f, x, n, 0};
+    atomic_init(&w.stop, 0);
+    pthread_t th;
+    assert_int_equal(pthread_create(&th, NULL, warm_worker, &w), 0);
+    share_job a = {f, x, queries, n, n_queries, 0, 0};
+    share_worker(&a);
+    atomic_store(&w.stop, 1);
+    assert_int_equal(pthread_join(th, NULL), 0);
+    printf("warm while queried: %zu of %zu answered\n", a.answered, n_queries);
+    assert_true(a.answered >= n_queries / 2);
+    pkss__nn_field_free(f);
+    pkss__kdtree_free(t);
+    free(queries);
+    free(x);
+}
+
 /* A table of 16 slots and a pool of 2000 entries: the field fills soon and
  * must then decline (-1) or answer correctly, never overrun. */
 static void test_full_field_declines(void **state)
@@ -311,6 +398,8 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_answers_equal_brute_force),
         cmocka_unit_test(test_threads_share_a_field),
+        cmocka_unit_test(test_warm_builds_ahead),
+        cmocka_unit_test(test_warm_while_queried),
         cmocka_unit_test(test_full_field_declines),
         cmocka_unit_test(test_contract),
     };

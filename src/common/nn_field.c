@@ -5,7 +5,10 @@
  * searches.
  *
  * Space is cut into cubes of PKSS_FIELD_CELL spacings; the second query that
- * lands in a cube builds its list (a cube asked once would not repay it):
+ * lands in a cube builds its list (a cube asked once would not repay it), or
+ * the helper thread builds it ahead while the call waits for its search
+ * (pkss__nn_field_warm: the cubes of the cloud's own points, where the
+ * runs' queries gather as they converge):
  * every point within d_1 + 2 rho of its centre (d_1 the centre's nearest
  * distance, rho the cube's half-diagonal), which holds the nearest point of
  * every location in the cube, sorted by distance from the centre. A query
@@ -172,19 +175,26 @@ static uint32_t build(pkss__nn_field *f, const double c[3])
     return (uint32_t)at;
 }
 
-/* The record of the cube q lies in, and the cube's centre; NULL where the
- * tree must answer. A cube's list is built on its second query, by the
- * thread that claims it: one asked once would not repay its building. */
-static const record *record_of(pkss__nn_field *f, const double q[3], double c[3])
+/* The key of the cube q lies in (0 if beyond the packed range) and its
+ * centre c. */
+static uint64_t cube_of(const pkss__nn_field *f, const double q[3], double c[3])
 {
     uint64_t key = 1; /* nonzero: EMPTY is 0 */
     for (int d = 0; d < 3; ++d) {
         double k = floor(q[d] * f->inv_side);
         if (!(fabs(k) < AXIS_LIMIT))
-            return NULL;
+            return 0;
         c[d] = (k + 0.5) * f->side;
         key = (key << AXIS_BITS) | (uint64_t)((int64_t)k + AXIS_LIMIT);
     }
+    return key;
+}
+
+/* The slot of cube key, claimed for it if it had none (*fresh set then);
+ * NULL when the table is full enough or its probes are taken. */
+static slot *slot_of(pkss__nn_field *f, uint64_t key, int *fresh)
+{
+    *fresh = 0;
     size_t h = (size_t)((key * 0x9E3779B97F4A7C15ull) >> (64 - f->slot_bits));
     for (int probe = 0; probe < PKSS_FIELD_PROBES; ++probe, h = (h + 1) & f->mask) {
         slot *s = &f->slots[h];
@@ -197,25 +207,66 @@ static const record *record_of(pkss__nn_field *f, const double q[3], double c[3]
                                                         memory_order_acq_rel,
                                                         memory_order_acquire)) {
                 atomic_fetch_add_explicit(&f->cells, 1, memory_order_relaxed);
-                return NULL; /* first seen */
+                *fresh = 1;
+                return s;
             }
             k = expected;
         }
-        if (k != key)
-            continue;
-        uint32_t at = atomic_load_explicit(&s->at, memory_order_acquire);
-        if (at == SEEN) {
-            uint32_t seen = SEEN;
-            if (!atomic_compare_exchange_strong_explicit(&s->at, &seen, BUILDING,
-                                                         memory_order_acq_rel,
-                                                         memory_order_acquire))
-                return NULL; /* the other thread builds it */
-            at = build(f, c);
-            atomic_store_explicit(&s->at, at, memory_order_release);
-        }
-        return at == BUILDING || at == NO_LIST ? NULL : (const record *)(f->pool + at);
+        if (k == key)
+            return s;
     }
     return NULL;
+}
+
+/* Builds the list of a seen cube (slot s, centre c) if this thread claims
+ * it; returns the slot's offset after that (BUILDING while another thread
+ * builds it). */
+static uint32_t build_claimed(pkss__nn_field *f, slot *s, const double c[3])
+{
+    uint32_t at = atomic_load_explicit(&s->at, memory_order_acquire);
+    if (at != SEEN)
+        return at;
+    uint32_t seen = SEEN;
+    if (!atomic_compare_exchange_strong_explicit(&s->at, &seen, BUILDING,
+                                                 memory_order_acq_rel, memory_order_acquire))
+        return seen; /* another thread claimed it */
+    at = build(f, c);
+    atomic_store_explicit(&s->at, at, memory_order_release);
+    return at;
+}
+
+/* The record of the cube q lies in, and the cube's centre; NULL where the
+ * tree must answer. A cube's list is built on its second query, by the
+ * thread that claims it: one asked once would not repay its building
+ * (unless pkss__nn_field_warm built it ahead). */
+static const record *record_of(pkss__nn_field *f, const double q[3], double c[3])
+{
+    uint64_t key = cube_of(f, q, c);
+    int fresh;
+    slot *s = key ? slot_of(f, key, &fresh) : NULL;
+    if (!s || fresh)
+        return NULL; /* first seen, or no room */
+    uint32_t at = build_claimed(f, s, c);
+    return at == BUILDING || at == NO_LIST ? NULL : (const record *)(f->pool + at);
+}
+
+size_t pkss__nn_field_warm(pkss__nn_field *f, const double *pts, size_t n,
+                           const atomic_int *stop)
+{
+    size_t built = 0;
+    for (size_t i = 0; f && i < n; ++i) {
+        if (atomic_load_explicit(stop, memory_order_relaxed))
+            break;
+        double c[3];
+        uint64_t key = cube_of(f, pts + 3 * i, c);
+        int fresh;
+        slot *s = key ? slot_of(f, key, &fresh) : NULL;
+        if (s && atomic_load_explicit(&s->at, memory_order_acquire) == SEEN) {
+            uint32_t at = build_claimed(f, s, c);
+            built += at != BUILDING && at != NO_LIST;
+        }
+    }
+    return built;
 }
 
 /* (d2, i) comes before (bd, bi): nearer, or as near with a lower index. */

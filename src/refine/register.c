@@ -113,6 +113,42 @@ static void free_views(pkss__views *v)
     pkss__nn_field_free(v->tvc.field);
 }
 
+/* The views' fields built ahead on the helper thread while the first search
+ * runs on the device, which leaves it idle: the coarse views first (their
+ * runs come first), each field over its own points, until warm_end. */
+typedef struct warmup {
+    const pkss__views *v;
+    pkss__helper *helper;
+    unsigned long ticket;
+    atomic_int stop;
+} warmup;
+
+static void warm_fields(void *arg)
+{
+    warmup *w = arg;
+    const pkss__icp_view *order[4] = {&w->v->tvc, &w->v->svc, &w->v->tv, &w->v->sv};
+    for (int i = 0; i < 4; ++i)
+        pkss__nn_field_warm(order[i]->field, order[i]->pts, order[i]->m, &w->stop);
+}
+
+static void warm_begin(pkss_context *ctx, const pkss__views *v, warmup *w)
+{
+    w->v = v;
+    atomic_init(&w->stop, 0);
+    w->helper = ctx->run ? &ctx->run->helper : NULL;
+    w->ticket = pkss__helper_offer(w->helper, warm_fields, w);
+}
+
+/* Stops the warm-up within one cube's list and waits for it (idempotent). */
+static void warm_end(warmup *w)
+{
+    if (!w || !w->ticket)
+        return;
+    atomic_store_explicit(&w->stop, 1, memory_order_relaxed);
+    pkss__helper_wait(w->helper, w->ticket, 0.0);
+    w->ticket = 0;
+}
+
 /* One global search (SPEC 5) over ss's rotations x offsets: its scores and
  * the best top_k candidates appended to rs (*kept of them). */
 static pkss_status search_stage(pkss_context *ctx, const pkss__search_setup *ss,
@@ -175,16 +211,19 @@ static pkss_status refine_stage(pkss_context *ctx, const pkss__search_setup *ss,
     return pkss__stage_full_runs(rs, base, kept, lead_in, scored);
 }
 
-/* One search and the refinement of its candidates, timed. */
+/* One search and the refinement of its candidates, timed; a warm-up under
+ * way (or NULL) ends with the search. */
 static pkss_status search_pass(pkss_context *ctx, const pkss_cloud *src,
                                const pkss_cloud *tgt,
                                const pkss__search_setup *ss, size_t top_k,
-                               double lead_in, pkss__refinement *rs)
+                               double lead_in, pkss__refinement *rs, warmup *warm)
 {
     const size_t base = rs->n;
     double t0 = pkss__now();
     size_t kept;
-    PKSS_FORWARD(search_stage(ctx, ss, top_k, rs, &kept));
+    pkss_status searched = search_stage(ctx, ss, top_k, rs, &kept);
+    warm_end(warm);
+    PKSS_FORWARD(searched);
     double t1 = pkss__now();
     rs->search_seconds += t1 - t0;
     if (kept == 0)
@@ -228,7 +267,7 @@ static pkss_status wide_search_stage(pkss_context *ctx, const pkss_cloud *src,
     if (pkss__search_setup_widen(&ctx->params, tgt, ss) != PKSS_OK)
         return fail_oom(ctx);
     rs->search_seconds += pkss__now() - t0;
-    PKSS_FORWARD(search_pass(ctx, src, tgt, ss, k2, win->overlap_unpolished, rs));
+    PKSS_FORWARD(search_pass(ctx, src, tgt, ss, k2, win->overlap_unpolished, rs, NULL));
     *evaluations += n_eval;
     *w = pkss__pick_winner(rs);
     return PKSS_OK;
@@ -328,6 +367,7 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
 {
     pkss_status st = PKSS_OK;
     double t0 = pkss__now();
+    warmup warm = {.ticket = 0};
     pkss__search_setup *ss = pkss__calloc(1, sizeof *ss);
     pkss__refinement *rs = pkss__calloc(1, sizeof *rs);
     if (!ss || !rs) {
@@ -340,8 +380,10 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
     }
     rs->search_seconds = pkss__now() - t0;
     set_views(ctx, src, tgt, &rs->v);
+    warm_begin(ctx, &rs->v, &warm);
     out->res.n_evaluations = ss->rot.n_rotations * (uint64_t)ss->n_offsets;
-    if ((st = search_pass(ctx, src, tgt, ss, (size_t)ctx->params.top_k, 0.0, rs)) != PKSS_OK)
+    if ((st = search_pass(ctx, src, tgt, ss, (size_t)ctx->params.top_k, 0.0, rs, &warm)) !=
+        PKSS_OK)
         goto done;
     if (rs->n == 0) {
         st = no_consensus(ctx);
@@ -373,6 +415,7 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
     }
     pkss__assess_store(&out->assess, &out->res);
 done:
+    warm_end(&warm);
     pkss__search_setup_free(ss);
     pkss__free(ss);
     if (rs)
