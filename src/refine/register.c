@@ -149,6 +149,58 @@ static void warm_end(warmup *w)
     w->ticket = 0;
 }
 
+/* The starts from local shape (pkss__local_starts) depend on the coarse
+ * views and the seed alone: the helper computes them while the wide search
+ * runs on the device, for the local stage that may follow it. */
+typedef struct local_job {
+    const pkss__views *v;
+    uint64_t seed;
+    pkss__helper *helper;
+    unsigned long ticket;
+    int ready;
+    pkss_status st;
+    size_t n;
+    pkss__pose starts[PKSS_LOCAL_STARTS];
+} local_job;
+
+static void compute_local_starts(void *arg)
+{
+    local_job *j = arg;
+    j->st = pkss__local_starts(&j->v->svc, &j->v->tvc, j->seed, PKSS_LOCAL_STARTS,
+                               j->starts, &j->n);
+}
+
+static void local_begin(pkss_context *ctx, const pkss__views *v, local_job *j)
+{
+    j->v = v;
+    j->seed = (uint64_t)ctx->params.seed;
+    j->helper = ctx->run ? &ctx->run->helper : NULL;
+    j->ticket = pkss__helper_offer(j->helper, compute_local_starts, j);
+}
+
+/* Waits for the helper's starts, if it took them (idempotent). */
+static void local_wait(local_job *j)
+{
+    if (!j->ticket)
+        return;
+    pkss__helper_wait(j->helper, j->ticket, 0.0);
+    j->ticket = 0;
+    j->ready = 1;
+}
+
+/* The starts: the helper's, or computed here. */
+static pkss_status local_take(pkss_context *ctx, const pkss__views *v, local_job *j)
+{
+    local_wait(j);
+    if (!j->ready) {
+        j->v = v;
+        j->seed = (uint64_t)ctx->params.seed;
+        compute_local_starts(j);
+        j->ready = 1;
+    }
+    return j->st;
+}
+
 /* One global search (SPEC 5) over ss's rotations x offsets: its scores and
  * the best top_k candidates appended to rs (*kept of them). */
 static pkss_status search_stage(pkss_context *ctx, const pkss__search_setup *ss,
@@ -254,7 +306,7 @@ static pkss_status wide_search_stage(pkss_context *ctx, const pkss_cloud *src,
                                      const pkss_cloud *tgt,
                                      pkss__search_setup *ss,
                                      pkss__refinement *rs, int *w,
-                                     uint64_t *evaluations)
+                                     uint64_t *evaluations, local_job *local)
 {
     const uint64_t n_eval = ss->rot.n_rotations * (uint64_t)ss->n_offsets;
     const pkss__icp_result *win = &rs->ir[*w];
@@ -267,6 +319,7 @@ static pkss_status wide_search_stage(pkss_context *ctx, const pkss_cloud *src,
     if (pkss__search_setup_widen(&ctx->params, tgt, ss) != PKSS_OK)
         return fail_oom(ctx);
     rs->search_seconds += pkss__now() - t0;
+    local_begin(ctx, &rs->v, local);
     PKSS_FORWARD(search_pass(ctx, src, tgt, ss, k2, win->overlap_unpolished, rs, NULL));
     *evaluations += n_eval;
     *w = pkss__pick_winner(rs);
@@ -278,15 +331,17 @@ static pkss_status wide_search_stage(pkss_context *ctx, const pkss_cloud *src,
  * both clouds are parts, which the searches' centroid-based cells
  * misjudge. They must beat w's fit. */
 static pkss_status local_stage(pkss_context *ctx, const pkss__search_setup *ss,
-                               pkss__refinement *rs, int *w)
+                               pkss__refinement *rs, int *w, local_job *local)
 {
     const pkss__icp_result *win = &rs->ir[*w];
     if (!(ctx->params.refine && rs->n < PKSS_MAX_CANDIDATES && pkss__part_unplaced(rs, *w)))
         return PKSS_OK;
     double t0 = pkss__now();
     size_t added = 0;
-    pkss_status st = pkss__stage_local(rs, ss, (uint64_t)ctx->params.seed,
-                                       win->overlap_unpolished, &added);
+    pkss_status st = local_take(ctx, &rs->v, local);
+    if (st == PKSS_OK)
+        st = pkss__stage_local(rs, ss, local->starts, local->n, win->overlap_unpolished,
+                               &added);
     if (st != PKSS_OK)
         return fail_step(ctx, st);
     if (added)
@@ -368,6 +423,7 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
     pkss_status st = PKSS_OK;
     double t0 = pkss__now();
     warmup warm = {.ticket = 0};
+    local_job local = {.ticket = 0, .ready = 0};
     pkss__search_setup *ss = pkss__calloc(1, sizeof *ss);
     pkss__refinement *rs = pkss__calloc(1, sizeof *rs);
     if (!ss || !rs) {
@@ -392,10 +448,10 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
     const size_t n_first = rs->n;
     int best = pkss__pick_winner(rs);
     if ((st = wide_search_stage(ctx, src, tgt, ss, rs, &best,
-                                &out->res.n_evaluations)) != PKSS_OK)
+                                &out->res.n_evaluations, &local)) != PKSS_OK)
         goto done;
     const size_t n_searched = rs->n;
-    if ((st = local_stage(ctx, ss, rs, &best)) != PKSS_OK)
+    if ((st = local_stage(ctx, ss, rs, &best, &local)) != PKSS_OK)
         goto done;
     const size_t n_local = rs->n;
     if ((st = shift_stage(ctx, rs, &best)) != PKSS_OK)
@@ -416,6 +472,7 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
     pkss__assess_store(&out->assess, &out->res);
 done:
     warm_end(&warm);
+    local_wait(&local);
     pkss__search_setup_free(ss);
     pkss__free(ss);
     if (rs)

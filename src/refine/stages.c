@@ -299,16 +299,12 @@ static void drop_known_basins(pkss__refinement *rs, size_t base)
 }
 
 pkss_status pkss__stage_local(pkss__refinement *rs, const pkss__search_setup *ss,
-                              uint64_t seed, double lead_in, size_t *added)
+                              const pkss__pose *starts, size_t n, double lead_in,
+                              size_t *added)
 {
-    pkss__pose starts[PKSS_LOCAL_STARTS];
     const size_t base = rs->n, room = PKSS_MAX_CANDIDATES - base;
-    size_t n = 0;
     *added = 0;
-    PKSS_FORWARD(pkss__local_starts(&rs->v.svc, &rs->v.tvc, seed,
-                                    room < PKSS_LOCAL_STARTS ? room : PKSS_LOCAL_STARTS,
-                                    starts, &n));
-    PKSS_FORWARD(append_starts(rs, ss, starts, n));
+    PKSS_FORWARD(append_starts(rs, ss, starts, n < room ? n : room));
     drop_known_basins(rs, base);
     static const int none_scored[PKSS_LOCAL_STARTS];
     *added = rs->n - base;

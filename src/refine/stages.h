@@ -72,12 +72,13 @@ int pkss__wants_full_run(const pkss__refinement *rs, const pkss__icp_result *ir,
 pkss_status pkss__stage_full_runs(pkss__refinement *rs, size_t base, size_t kept,
                                   double lead_in, const int *scored);
 /* Candidates from local shape where the winner covers neither cloud
- * wholly: up to PKSS_LOCAL_STARTS poses of pkss__local_starts (*added of
- * them, appended; scored by ss's measure at their poses), each with a
- * coarse level, then full runs as a search's candidates get them
- * (pkss__stage_full_runs, against lead_in). */
+ * wholly: starts[0..n), the poses of pkss__local_starts, as many as there
+ * is room for (*added of them, appended; scored by ss's measure at their
+ * poses), each with a coarse level, then full runs as a search's
+ * candidates get them (pkss__stage_full_runs, against lead_in). */
 pkss_status pkss__stage_local(pkss__refinement *rs, const pkss__search_setup *ss,
-                              uint64_t seed, double lead_in, size_t *added);
+                              const pkss__pose *starts, size_t n, double lead_in,
+                              size_t *added);
 /* The scale pairs of a full run from coverages f_s, f_t (otherwise when
  * neither is a part wholly on the other). */
 int pkss__part_mode(double fs, double ft, int otherwise);
