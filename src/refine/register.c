@@ -6,6 +6,7 @@
  * slide search where the winner shows a part, and the winner composed back
  * into the caller's coordinates.
  */
+#include "refine/ahead.h"
 #include "refine/assess.h"
 #include "refine/stages.h"
 
@@ -113,92 +114,10 @@ static void free_views(pkss__views *v)
     pkss__nn_field_free(v->tvc.field);
 }
 
-/* The views' fields built ahead on the helper thread while the first search
- * runs on the device, which leaves it idle: the coarse views first (their
- * runs come first), each field over its own points, until warm_end. */
-typedef struct warmup {
-    const pkss__views *v;
-    pkss__helper *helper;
-    unsigned long ticket;
-    atomic_int stop;
-} warmup;
-
-static void warm_fields(void *arg)
+/* The call's helper thread (NULL outside a call). */
+static pkss__helper *call_helper(pkss_context *ctx)
 {
-    warmup *w = arg;
-    const pkss__icp_view *order[4] = {&w->v->tvc, &w->v->svc, &w->v->tv, &w->v->sv};
-    for (int i = 0; i < 4; ++i)
-        pkss__nn_field_warm(order[i]->field, order[i]->pts, order[i]->m, &w->stop);
-}
-
-static void warm_begin(pkss_context *ctx, const pkss__views *v, warmup *w)
-{
-    w->v = v;
-    atomic_init(&w->stop, 0);
-    w->helper = ctx->run ? &ctx->run->helper : NULL;
-    w->ticket = pkss__helper_offer(w->helper, warm_fields, w);
-}
-
-/* Stops the warm-up within one cube's list and waits for it (idempotent). */
-static void warm_end(warmup *w)
-{
-    if (!w || !w->ticket)
-        return;
-    atomic_store_explicit(&w->stop, 1, memory_order_relaxed);
-    pkss__helper_wait(w->helper, w->ticket, 0.0);
-    w->ticket = 0;
-}
-
-/* The starts from local shape (pkss__local_starts) depend on the coarse
- * views and the seed alone: the helper computes them while the wide search
- * runs on the device, for the local stage that may follow it. */
-typedef struct local_job {
-    const pkss__views *v;
-    uint64_t seed;
-    pkss__helper *helper;
-    unsigned long ticket;
-    int ready;
-    pkss_status st;
-    size_t n;
-    pkss__pose starts[PKSS_LOCAL_STARTS];
-} local_job;
-
-static void compute_local_starts(void *arg)
-{
-    local_job *j = arg;
-    j->st = pkss__local_starts(&j->v->svc, &j->v->tvc, j->seed, PKSS_LOCAL_STARTS,
-                               j->starts, &j->n);
-}
-
-static void local_begin(pkss_context *ctx, const pkss__views *v, local_job *j)
-{
-    j->v = v;
-    j->seed = (uint64_t)ctx->params.seed;
-    j->helper = ctx->run ? &ctx->run->helper : NULL;
-    j->ticket = pkss__helper_offer(j->helper, compute_local_starts, j);
-}
-
-/* Waits for the helper's starts, if it took them (idempotent). */
-static void local_wait(local_job *j)
-{
-    if (!j->ticket)
-        return;
-    pkss__helper_wait(j->helper, j->ticket, 0.0);
-    j->ticket = 0;
-    j->ready = 1;
-}
-
-/* The starts: the helper's, or computed here. */
-static pkss_status local_take(pkss_context *ctx, const pkss__views *v, local_job *j)
-{
-    local_wait(j);
-    if (!j->ready) {
-        j->v = v;
-        j->seed = (uint64_t)ctx->params.seed;
-        compute_local_starts(j);
-        j->ready = 1;
-    }
-    return j->st;
+    return ctx->run ? &ctx->run->helper : NULL;
 }
 
 /* One global search (SPEC 5) over ss's rotations x offsets: its scores and
@@ -268,13 +187,13 @@ static pkss_status refine_stage(pkss_context *ctx, const pkss__search_setup *ss,
 static pkss_status search_pass(pkss_context *ctx, const pkss_cloud *src,
                                const pkss_cloud *tgt,
                                const pkss__search_setup *ss, size_t top_k,
-                               double lead_in, pkss__refinement *rs, warmup *warm)
+                               double lead_in, pkss__refinement *rs, pkss__warmup *warm)
 {
     const size_t base = rs->n;
     double t0 = pkss__now();
     size_t kept;
     pkss_status searched = search_stage(ctx, ss, top_k, rs, &kept);
-    warm_end(warm);
+    pkss__warm_end(warm);
     PKSS_FORWARD(searched);
     double t1 = pkss__now();
     rs->search_seconds += t1 - t0;
@@ -306,7 +225,7 @@ static pkss_status wide_search_stage(pkss_context *ctx, const pkss_cloud *src,
                                      const pkss_cloud *tgt,
                                      pkss__search_setup *ss,
                                      pkss__refinement *rs, int *w,
-                                     uint64_t *evaluations, local_job *local)
+                                     uint64_t *evaluations, pkss__local_job *local)
 {
     const uint64_t n_eval = ss->rot.n_rotations * (uint64_t)ss->n_offsets;
     const pkss__icp_result *win = &rs->ir[*w];
@@ -319,7 +238,7 @@ static pkss_status wide_search_stage(pkss_context *ctx, const pkss_cloud *src,
     if (pkss__search_setup_widen(&ctx->params, tgt, ss) != PKSS_OK)
         return fail_oom(ctx);
     rs->search_seconds += pkss__now() - t0;
-    local_begin(ctx, &rs->v, local);
+    pkss__local_begin(call_helper(ctx), &rs->v, (uint64_t)ctx->params.seed, local);
     PKSS_FORWARD(search_pass(ctx, src, tgt, ss, k2, win->overlap_unpolished, rs, NULL));
     *evaluations += n_eval;
     *w = pkss__pick_winner(rs);
@@ -331,14 +250,14 @@ static pkss_status wide_search_stage(pkss_context *ctx, const pkss_cloud *src,
  * both clouds are parts, which the searches' centroid-based cells
  * misjudge. They must beat w's fit. */
 static pkss_status local_stage(pkss_context *ctx, const pkss__search_setup *ss,
-                               pkss__refinement *rs, int *w, local_job *local)
+                               pkss__refinement *rs, int *w, pkss__local_job *local)
 {
     const pkss__icp_result *win = &rs->ir[*w];
     if (!(ctx->params.refine && rs->n < PKSS_MAX_CANDIDATES && pkss__part_unplaced(rs, *w)))
         return PKSS_OK;
     double t0 = pkss__now();
     size_t added = 0;
-    pkss_status st = local_take(ctx, &rs->v, local);
+    pkss_status st = pkss__local_take(&rs->v, (uint64_t)ctx->params.seed, local);
     if (st == PKSS_OK)
         st = pkss__stage_local(rs, ss, local->starts, local->n, win->overlap_unpolished,
                                &added);
@@ -422,8 +341,8 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
 {
     pkss_status st = PKSS_OK;
     double t0 = pkss__now();
-    warmup warm = {.ticket = 0};
-    local_job local = {.ticket = 0, .ready = 0};
+    pkss__warmup warm = {.ticket = 0};
+    pkss__local_job local = {.ticket = 0, .ready = 0};
     pkss__search_setup *ss = pkss__calloc(1, sizeof *ss);
     pkss__refinement *rs = pkss__calloc(1, sizeof *rs);
     if (!ss || !rs) {
@@ -436,7 +355,7 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
     }
     rs->search_seconds = pkss__now() - t0;
     set_views(ctx, src, tgt, &rs->v);
-    warm_begin(ctx, &rs->v, &warm);
+    pkss__warm_begin(call_helper(ctx), &rs->v, &warm);
     out->res.n_evaluations = ss->rot.n_rotations * (uint64_t)ss->n_offsets;
     if ((st = search_pass(ctx, src, tgt, ss, (size_t)ctx->params.top_k, 0.0, rs, &warm)) !=
         PKSS_OK)
@@ -471,8 +390,8 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
     }
     pkss__assess_store(&out->assess, &out->res);
 done:
-    warm_end(&warm);
-    local_wait(&local);
+    pkss__warm_end(&warm);
+    pkss__local_wait(&local);
     pkss__search_setup_free(ss);
     pkss__free(ss);
     if (rs)
