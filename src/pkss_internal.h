@@ -241,6 +241,10 @@ size_t pkss__nn_field_warm(pkss__nn_field *field, const double *pts, size_t n,
 /* Each step takes an array of n points (double xyz) and writes a keep mask
  * or a new array. They never fail except for out-of-memory. */
 
+/* The value of rank r (0-based, r < n) in v[0, n); reorders v (select.c:
+ * medians and quantiles of the steps below). */
+double pkss__select_value(double *v, size_t n, size_t r);
+
 /* keep[i] = 0 for a repeat of an earlier point's exact position. */
 pkss_status pkss__dedupe(const double *xyz, size_t n, unsigned char *keep,
                          size_t *n_unique);
@@ -293,8 +297,6 @@ static inline void pkss__mat3_apply(const double *A, const double *x, double *y)
     y[1] = r1;
     y[2] = r2;
 }
-/* The value of rank r (0-based, r < n) in v[0, n); reorders v. */
-double pkss__select_value(double *v, size_t n, size_t r);
 /* Squared distance between two 3-vectors (kd-tree and ICP hot loops). */
 static inline double pkss__dist2(const double *a, const double *b)
 {

@@ -194,6 +194,38 @@ static void test_answers_equal_brute_force(void **state)
     }
 }
 
+/* A noisy sphere of n points with its tree, a field on it and n_queries
+ * queries (a quarter of them far): the set-up of the two-thread tests. */
+typedef struct sphere_case {
+    double *x, *queries, spacing;
+    size_t n, n_queries;
+    pkss__kdtree *t;
+    pkss__nn_field *f;
+} sphere_case;
+
+static sphere_case sphere_case_new(uint64_t seed, size_t n, size_t n_queries)
+{
+    pkss_test_rng rng = {seed};
+    sphere_case c = {.n = n, .n_queries = n_queries};
+    c.x = make_cloud(&rng, SPHERE, n, &c.spacing);
+    c.queries = malloc(3 * n_queries * sizeof(double));
+    assert_non_null(c.queries);
+    for (size_t j = 0; j < n_queries; ++j)
+        make_query(&rng, c.x, n, c.spacing, j % 4 == 0, c.queries + 3 * j);
+    assert_int_equal(pkss__kdtree_build(c.x, n, &c.t), PKSS_OK);
+    c.f = pkss__nn_field_new(c.t, c.spacing);
+    assert_non_null(c.f);
+    return c;
+}
+
+static void sphere_case_free(sphere_case *c)
+{
+    pkss__nn_field_free(c->f);
+    pkss__kdtree_free(c->t);
+    free(c->queries);
+    free(c->x);
+}
+
 /* Two threads query one field at once, each in its own order: cubes are
  * claimed and built by whichever comes first (tools/run-tests.sh runs this
  * program under ThreadSanitizer too). */
@@ -220,30 +252,16 @@ static void *share_worker(void *arg)
 static void test_threads_share_a_field(void **state)
 {
     (void)state;
-    pkss_test_rng rng = {g_seed ^ 0x5eedu};
-    const size_t n = 2000, n_queries = 600;
-    double spacing;
-    double *x = make_cloud(&rng, SPHERE, n, &spacing);
-    double *queries = malloc(3 * n_queries * sizeof(double));
-    assert_non_null(queries);
-    for (size_t j = 0; j < n_queries; ++j)
-        make_query(&rng, x, n, spacing, j % 4 == 0, queries + 3 * j);
-    pkss__kdtree *t = NULL;
-    assert_int_equal(pkss__kdtree_build(x, n, &t), PKSS_OK);
-    pkss__nn_field *f = pkss__nn_field_new(t, spacing);
-    assert_non_null(f);
-    share_job a = {f, x, queries, n, n_queries, 0, 0};
-    share_job b = {f, x, queries, n, n_queries, n_queries / 2, 0};
+    sphere_case c = sphere_case_new(g_seed ^ 0x5eedu, 2000, 600);
+    share_job a = {c.f, c.x, c.queries, c.n, c.n_queries, 0, 0};
+    share_job b = {c.f, c.x, c.queries, c.n, c.n_queries, c.n_queries / 2, 0};
     pthread_t th;
     assert_int_equal(pthread_create(&th, NULL, share_worker, &b), 0);
     share_worker(&a);
     assert_int_equal(pthread_join(th, NULL), 0);
-    printf("shared: %zu and %zu of %zu answered\n", a.answered, b.answered, n_queries);
-    assert_true(a.answered + b.answered >= n_queries);
-    pkss__nn_field_free(f);
-    pkss__kdtree_free(t);
-    free(queries);
-    free(x);
+    printf("shared: %zu and %zu of %zu answered\n", a.answered, b.answered, c.n_queries);
+    assert_true(a.answered + b.answered >= c.n_queries);
+    sphere_case_free(&c);
 }
 
 /* A field warmed with the cloud's own points answers a near query on its
@@ -303,32 +321,18 @@ static void *warm_worker(void *arg)
 static void test_warm_while_queried(void **state)
 {
     (void)state;
-    pkss_test_rng rng = {g_seed ^ 0x7e7eu};
-    const size_t n = 2000, n_queries = 600;
-    double spacing;
-    double *x = make_cloud(&rng, SPHERE, n, &spacing);
-    double *queries = malloc(3 * n_queries * sizeof(double));
-    assert_non_null(queries);
-    for (size_t j = 0; j < n_queries; ++j)
-        make_query(&rng, x, n, spacing, j % 4 == 0, queries + 3 * j);
-    pkss__kdtree *t = NULL;
-    assert_int_equal(pkss__kdtree_build(x, n, &t), PKSS_OK);
-    pkss__nn_field *f = pkss__nn_field_new(t, spacing);
-    assert_non_null(f);
-    warm_job w = {f, x, n, 0};
+    sphere_case c = sphere_case_new(g_seed ^ 0x7e7eu, 2000, 600);
+    warm_job w = {c.f, c.x, c.n, 0};
     atomic_init(&w.stop, 0);
     pthread_t th;
     assert_int_equal(pthread_create(&th, NULL, warm_worker, &w), 0);
-    share_job a = {f, x, queries, n, n_queries, 0, 0};
+    share_job a = {c.f, c.x, c.queries, c.n, c.n_queries, 0, 0};
     share_worker(&a);
     atomic_store(&w.stop, 1);
     assert_int_equal(pthread_join(th, NULL), 0);
-    printf("warm while queried: %zu of %zu answered\n", a.answered, n_queries);
-    assert_true(a.answered >= n_queries / 2);
-    pkss__nn_field_free(f);
-    pkss__kdtree_free(t);
-    free(queries);
-    free(x);
+    printf("warm while queried: %zu of %zu answered\n", a.answered, c.n_queries);
+    assert_true(a.answered >= c.n_queries / 2);
+    sphere_case_free(&c);
 }
 
 /* A table of 16 slots and a pool of 2000 entries: the field fills soon and
