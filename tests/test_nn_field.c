@@ -195,7 +195,8 @@ static void test_answers_equal_brute_force(void **state)
 }
 
 /* A noisy sphere of n points with its tree, a field on it and n_queries
- * queries (a quarter of them far): the set-up of the two-thread tests. */
+ * queries (a quarter of them far): the set-up of the warm-up and two-thread
+ * tests. */
 typedef struct sphere_case {
     double *x, *queries, spacing;
     size_t n, n_queries;
@@ -208,7 +209,7 @@ static sphere_case sphere_case_new(uint64_t seed, size_t n, size_t n_queries)
     pkss_test_rng rng = {seed};
     sphere_case c = {.n = n, .n_queries = n_queries};
     c.x = make_cloud(&rng, SPHERE, n, &c.spacing);
-    c.queries = malloc(3 * n_queries * sizeof(double));
+    c.queries = malloc(3 * (n_queries ? n_queries : 1) * sizeof(double));
     assert_non_null(c.queries);
     for (size_t j = 0; j < n_queries; ++j)
         make_query(&rng, c.x, n, c.spacing, j % 4 == 0, c.queries + 3 * j);
@@ -270,14 +271,10 @@ static void test_threads_share_a_field(void **state)
 static void test_warm_builds_ahead(void **state)
 {
     (void)state;
-    pkss_test_rng rng = {g_seed ^ 0x3a3au};
-    const size_t n = 2000;
-    double spacing;
-    double *x = make_cloud(&rng, SPHERE, n, &spacing);
-    pkss__kdtree *t = NULL;
-    assert_int_equal(pkss__kdtree_build(x, n, &t), PKSS_OK);
-    pkss__nn_field *f = pkss__nn_field_new(t, spacing);
-    assert_non_null(f);
+    sphere_case c = sphere_case_new(g_seed ^ 0x3a3au, 2000, 0);
+    pkss__nn_field *f = c.f;
+    const double *x = c.x;
+    const size_t n = c.n;
     atomic_int stop;
     atomic_init(&stop, 1);
     assert_int_equal(pkss__nn_field_warm(f, x, n, &stop), 0);
@@ -296,9 +293,7 @@ static void test_warm_builds_ahead(void **state)
     printf("warm: %zu cubes built, %zu of %zu first queries answered\n", built, first,
            (n + 6) / 7);
     assert_true(first >= (n + 6) / 7 * 9 / 10);
-    pkss__nn_field_free(f);
-    pkss__kdtree_free(t);
-    free(x);
+    sphere_case_free(&c);
 }
 
 /* One thread warms a field while another queries it (as the helper warms

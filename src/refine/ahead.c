@@ -58,8 +58,7 @@ pkss_status pkss__local_take(const pkss__views *v, uint64_t seed, pkss__local_jo
 {
     pkss__local_wait(j);
     if (!j->ready) {
-        j->v = v;
-        j->seed = seed;
+        pkss__local_begin(NULL, v, seed, j); /* no helper: records the inputs */
         compute_local_starts(j);
         j->ready = 1;
     }
