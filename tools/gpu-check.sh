@@ -47,12 +47,20 @@ T0=$(date +%s)
 say() { printf '%s\n' "gpu-check: $*"; }
 
 # ------------------------------------------------------------------ build
+# The programs of the device-labelled tests, by tests/CMakeLists.txt's own
+# rule (every tests/test_cl_*.c, and the end-to-end program it runs again on
+# the device): a device test added there is built here too.
+device_programs() {
+  for f in "$ROOT"/tests/test_cl_*.c; do basename "$f" .c; done
+  echo test_e2e_registration
+}
 if [ "$DO_BUILD" = 1 ]; then
   say "building in $BUILD (log: $LOG/build.log)"
   if ! { cmake -S "$ROOT" -B "$BUILD" -DCMAKE_BUILD_TYPE=Release \
            -DPKSS_BUILD_TESTS=ON -DPKSS_BUILD_TOOLS=ON &&
-         cmake --build "$BUILD" -j "$JOBS" --target pkss-info bench_search \
-           test_cl_search test_cl_cache test_cl_nodevice test_e2e_registration; \
+         PROGRAMS="$(device_programs)" && [ -n "$PROGRAMS" ] &&
+         # shellcheck disable=SC2086
+         cmake --build "$BUILD" -j "$JOBS" --target pkss-info bench_search $PROGRAMS; \
        } > "$LOG/build.log" 2>&1; then
     tail -20 "$LOG/build.log"
     say "FAILED: the build (see $LOG/build.log)"
@@ -61,7 +69,7 @@ if [ "$DO_BUILD" = 1 ]; then
 fi
 INFO="$BUILD/tools/pkss-info"
 BENCH="$BUILD/tools/bench_search"
-for t in "$INFO" "$BENCH"; do
+for t in "$INFO" "$BENCH" $(device_programs | sed "s|^|$BUILD/tests/|"); do
   [ -x "$t" ] || { say "FAILED: $t is missing (build first, without --no-build)"; exit 1; }
 done
 

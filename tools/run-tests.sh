@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The README's second command (and what CI runs): the whole test suite.
 #   1. Release build, every ctest program (unit, device on PoCL, slow
-#      end-to-end, CLI), warnings as errors under CI;
+#      end-to-end, CLI), warnings as errors under CI; then tools/gpu-check.sh
+#      in its own build, which must pass on PoCL and say when no GPU is found;
 #   2. the C package: libpkss.so's link surface (no NEEDED libOpenCL,
 #      pkss_* exports only), `cmake --install` into build/prefix, and
 #      programs built only from what was installed: a find_package(pkss)
@@ -30,6 +31,7 @@ cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DPKSS_WERROR=$WERROR \
       -DPKSS_BUILD_STATIC=ON >/dev/null
 cmake --build build -j"$JOBS"
 ctest --test-dir build --output-on-failure -j"$JOBS"
+bash tools/gpu-check.sh --build build-gpu-check
 
 echo "== [2/6] C package: exports, install, CMake + pkg-config + Rust consumers"
 bash tests/package/check_exports.sh build/src/libpkss.so
