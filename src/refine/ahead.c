@@ -7,8 +7,8 @@
 static void warm_fields(void *arg)
 {
     pkss__warmup *w = arg;
-    const pkss__icp_view *order[4] = {&w->v->tvc, &w->v->svc, &w->v->tv, &w->v->sv};
-    for (int i = 0; i < 4; ++i)
+    const pkss__icp_view *order[2] = {&w->v->tvc, &w->v->svc};
+    for (int i = 0; i < 2; ++i)
         pkss__nn_field_warm(order[i]->field, order[i]->pts, order[i]->m, &w->stop);
 }
 

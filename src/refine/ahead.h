@@ -1,7 +1,8 @@
 /* SPDX-License-Identifier: MIT
  * ahead.h -- work done ahead on the call's helper thread while a search runs
- * on the device, which leaves the helper idle (ahead.c): the fields' lists
- * during the first search, the starts from local shape during the wide one.
+ * on the device, which leaves the helper idle (ahead.c): the coarse views'
+ * field lists during the first search, the starts from local shape during
+ * the wide one.
  * Each job ends (or is waited for) before what it touches is freed; which
  * thread does the work never changes a result.
  */
@@ -10,8 +11,10 @@
 
 #include "refine/stages.h"
 
-/* The views' fields built ahead (pkss__nn_field_warm): the coarse views
- * first (their runs come first), each field over its own points. */
+/* The coarse views' fields built ahead (pkss__nn_field_warm), each over its
+ * own points: every candidate's coarse level reads them. The full views'
+ * lists are built as the few full runs ask: built here, they slowed the
+ * device's scoring on a CPU device more than they saved (docs/tuning.md). */
 typedef struct pkss__warmup {
     const pkss__views *v;
     pkss__helper *helper;
