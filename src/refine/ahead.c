@@ -7,9 +7,9 @@
 static void warm_fields(void *arg)
 {
     pkss__warmup *w = arg;
-    const pkss__icp_view *order[2] = {&w->v->tvc, &w->v->svc};
+    const pkss__icp_view *coarse[2] = {&w->v->tvc, &w->v->svc};
     for (int i = 0; i < 2; ++i)
-        pkss__nn_field_warm(order[i]->field, order[i]->pts, order[i]->m, &w->stop);
+        pkss__nn_field_warm(coarse[i]->field, coarse[i]->pts, coarse[i]->m, &w->stop);
 }
 
 void pkss__warm_begin(pkss__helper *helper, const pkss__views *v, pkss__warmup *w)

@@ -13,8 +13,8 @@
 
 /* The coarse views' fields built ahead (pkss__nn_field_warm), each over its
  * own points: every candidate's coarse level reads them. The full views'
- * lists are built as the few full runs ask: built here, they slowed the
- * device's scoring on a CPU device more than they saved (docs/tuning.md). */
+ * lists are built as the few full runs ask: built here too, they slowed a
+ * CPU device's scoring by about their own cost (docs/tuning.md). */
 typedef struct pkss__warmup {
     const pkss__views *v;
     pkss__helper *helper;
