@@ -100,6 +100,12 @@ typedef struct pkss__run {
     pkss__helper helper;       /* the call's one extra thread */
 } pkss__run;
 
+/* The helper thread of a call's run, NULL outside a call. */
+static inline pkss__helper *pkss__run_helper(pkss__run *run)
+{
+    return run ? &run->helper : NULL;
+}
+
 struct pkss_context {
     pkss__params params;
     char *device_request;      /* PKSS_PARAM_DEVICE string, or NULL */

@@ -50,11 +50,18 @@ static void test_same_basin_tolerances(void **state)
                      pkss__same_basin(&b, &a, h, &pkss__start_basin));
 }
 
+/* An empty table of run minima. */
+static pkss__basins *new_basins(void)
+{
+    pkss__basins *b = calloc(1, sizeof *b);
+    assert_non_null(b);
+    return b;
+}
+
 static void test_basins_skip_own_and_bound(void **state)
 {
     (void)state;
-    pkss__basins *b = calloc(1, sizeof *b);
-    assert_non_null(b);
+    pkss__basins *b = new_basins();
     const double h = 0.01;
     pkss__pose p = pose_at(10.0, 1.0, 0.0), q = pose_at(11.0, 1.0, 0.0);
     pkss__basins_add(b, &p, 7, 0.5);
@@ -75,8 +82,7 @@ static void test_basins_skip_own_and_bound(void **state)
 static void test_abandoned_basins(void **state)
 {
     (void)state;
-    pkss__basins *b = calloc(1, sizeof *b);
-    assert_non_null(b);
+    pkss__basins *b = new_basins();
     const double h = 0.01;
     pkss__pose p = pose_at(10.0, 1.0, 0.0), q = pose_at(11.0, 1.0, 0.0);
     pkss__pose p5 = pose_at(60.0, 1.0, 0.0), q5 = pose_at(60.5, 1.0, 0.0);

@@ -50,7 +50,7 @@ pkss_status pkss__cloud_build_pair(pkss_context *ctx, const double *source,
         jobs[i].n = n[i];
         jobs[i].which = which[i];
     }
-    pkss__helper *helper = ctx->run ? &ctx->run->helper : NULL;
+    pkss__helper *helper = pkss__run_helper(ctx->run);
     unsigned long ticket = pkss__helper_offer(helper, build_worker, &jobs[1]);
     build_worker(&jobs[0]);
     if (ticket)

@@ -152,7 +152,7 @@ static void lookups(void *arg)
  * where the views are too small to gain from it (ICP_THREAD_MIN). */
 static pkss__helper *pass_helper(const pkss__icp_view *src, const pkss__icp_view *tgt)
 {
-    return src->run && src->m + tgt->m >= 2 * ICP_THREAD_MIN ? &src->run->helper : NULL;
+    return src->m + tgt->m >= 2 * ICP_THREAD_MIN ? pkss__run_helper(src->run) : NULL;
 }
 
 /* Nearest template point of every source point (fwd) and nearest source

@@ -186,7 +186,7 @@ pkss_status pkss__icp_slide_search(const pkss__icp_view *src,
         jobs[k] = (slide_job){src, tgt, &at, {u[0], u[1], u[2]}, h, fg,
                               (int)(PKSS_SLIDE_RANGE * (hi - lo) / h), k,
                               sqrt(f0[0] * f0[1]), 0};
-    pkss__helper *helper = src->run ? &src->run->helper : NULL;
+    pkss__helper *helper = pkss__run_helper(src->run);
     pkss__helper_both(helper, slide_trials, &jobs[0], &jobs[1]);
     const slide_job *b = better(&jobs[1], &jobs[0]) ? &jobs[1] : &jobs[0];
     const int best_k = b->best_k;

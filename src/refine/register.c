@@ -114,12 +114,6 @@ static void free_views(pkss__views *v)
     pkss__nn_field_free(v->tvc.field);
 }
 
-/* The call's helper thread (NULL outside a call). */
-static pkss__helper *call_helper(pkss_context *ctx)
-{
-    return ctx->run ? &ctx->run->helper : NULL;
-}
-
 /* One global search (SPEC 5) over ss's rotations x offsets: its scores and
  * the best top_k candidates appended to rs (*kept of them). */
 static pkss_status search_stage(pkss_context *ctx, const pkss__search_setup *ss,
@@ -238,7 +232,7 @@ static pkss_status wide_search_stage(pkss_context *ctx, const pkss_cloud *src,
     if (pkss__search_setup_widen(&ctx->params, tgt, ss) != PKSS_OK)
         return fail_oom(ctx);
     rs->search_seconds += pkss__now() - t0;
-    pkss__local_begin(call_helper(ctx), &rs->v, (uint64_t)ctx->params.seed, local);
+    pkss__local_begin(pkss__run_helper(ctx->run), &rs->v, (uint64_t)ctx->params.seed, local);
     PKSS_FORWARD(search_pass(ctx, src, tgt, ss, k2, win->overlap_unpolished, rs, NULL));
     *evaluations += n_eval;
     *w = pkss__pick_winner(rs);
@@ -355,7 +349,7 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
     }
     rs->search_seconds = pkss__now() - t0;
     set_views(ctx, src, tgt, &rs->v);
-    pkss__warm_begin(call_helper(ctx), &rs->v, &warm);
+    pkss__warm_begin(pkss__run_helper(ctx->run), &rs->v, &warm);
     out->res.n_evaluations = ss->rot.n_rotations * (uint64_t)ss->n_offsets;
     if ((st = search_pass(ctx, src, tgt, ss, (size_t)ctx->params.top_k, 0.0, rs, &warm)) !=
         PKSS_OK)

@@ -250,7 +250,7 @@ static pkss_status cast_votes(const double *y, size_t m, const pkss__icp_view *t
         goto done;
     vote_job a = {y, 0, m / 2, &g, cell, r, tgt->run, acc, stamp, PKSS_OK};
     vote_job b = {y, m / 2, m, &g, cell, r, tgt->run, acc2, stamp2, PKSS_OK};
-    pkss__helper *helper = tgt->run ? &tgt->run->helper : NULL;
+    pkss__helper *helper = pkss__run_helper(tgt->run);
     pkss__helper_both(helper, vote_worker, &a, &b);
     for (size_t k = 0; k < cells; ++k)
         acc[k] += acc2[k];

@@ -133,7 +133,7 @@ static pkss_status for_each_candidate(const cand_work *w)
     a.first = 0;
     b.first = 1;
     a.stride = b.stride = 2;
-    pkss__helper *helper = w->rs->v.sv.run && w->n_list > 1 ? &w->rs->v.sv.run->helper : NULL;
+    pkss__helper *helper = w->n_list > 1 ? pkss__run_helper(w->rs->v.sv.run) : NULL;
     pkss__helper_both(helper, cand_worker, &a, &b);
     for (size_t k = 0; k < w->n_list; ++k)
         if (w->rs->st[w->list[k]] != PKSS_OK)
