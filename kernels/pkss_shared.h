@@ -518,47 +518,22 @@ PKSS_INLINE pkss_vi pkss_trim_keeps(const pkss_trim *f, int cell,
     return pkss_pair_residual(f->R, x, y, f->mx, f->my, f->sx, f->sy) <= f->tau;
 }
 
-/* The matched pairs that pass filter f: their count k and means mx, my. */
-PKSS_INLINE pkss_vi pkss_pair_means(PKSS_CONST float *src, int shift,
-                                    PKSS_CONST float *tgt, int tgt_stride,
-                                    int n_az, const pkss_trim *f, pkss_vf *mx,
-                                    pkss_vf *my)
+/* The matched pairs that pass filter f, in one pass: their count k, means
+ * mx, my and, centred on them, H = sum x y^T (not normalised) with the
+ * squared norms nx, ny, from the raw sums (H = S_xy - k mx my^T). Both
+ * pre-shapes are centred (Eq. 2), so the means are small against the
+ * reps and the subtraction loses little. */
+PKSS_INLINE pkss_vi pkss_pair_moments(PKSS_CONST float *src, int shift,
+                                      PKSS_CONST float *tgt, int tgt_stride,
+                                      int n_az, const pkss_trim *f, pkss_vf *mx,
+                                      pkss_vf *my, pkss_vf *H, pkss_vf *nx_out,
+                                      pkss_vf *ny_out)
 {
     const pkss_vf zero = PKSS_VF(0.0f);
     pkss_vi k = PKSS_VI(0);
-    pkss_vf x[3], y[3];
+    pkss_vf x[3], y[3], sx[3], sy[3], nx = zero, ny = zero;
     for (int d = 0; d < 3; ++d)
-        mx[d] = my[d] = zero;
-    for (int e = 0; e < n_az / 2; ++e)
-        for (int a = 0; a < n_az; ++a) {
-            pkss_vi m = pkss_load_pair(src, shift, tgt, tgt_stride, n_az, e, a, x, y);
-            if (!PKSS_ANY(m))
-                continue;
-            m = m & pkss_trim_keeps(f, n_az * e + a, x, y);
-            k = k + PKSS_ONE_IF(m);
-            for (int d = 0; d < 3; ++d) {
-                mx[d] = mx[d] + PKSS_SEL(m, x[d], zero);
-                my[d] = my[d] + PKSS_SEL(m, y[d], zero);
-            }
-        }
-    pkss_vf inv_k = 1.0f / PKSS_TO_VF(PKSS_SEL(k > 0, k, PKSS_VI(1)));
-    for (int d = 0; d < 3; ++d) {
-        mx[d] = mx[d] * inv_k;
-        my[d] = my[d] * inv_k;
-    }
-    return k;
-}
-
-/* ... and, centred on those means, H = sum x y^T (not normalised) with the
- * squared norms nx, ny. */
-PKSS_INLINE void pkss_pair_cov(PKSS_CONST float *src, int shift,
-                               PKSS_CONST float *tgt, int tgt_stride, int n_az,
-                               const pkss_trim *f, const pkss_vf *mx,
-                               const pkss_vf *my, pkss_vf *H, pkss_vf *nx_out,
-                               pkss_vf *ny_out)
-{
-    const pkss_vf zero = PKSS_VF(0.0f);
-    pkss_vf x[3], y[3], nx = zero, ny = zero;
+        sx[d] = sy[d] = zero;
     for (int i = 0; i < 9; ++i)
         H[i] = zero;
     for (int e = 0; e < n_az / 2; ++e)
@@ -567,22 +542,32 @@ PKSS_INLINE void pkss_pair_cov(PKSS_CONST float *src, int shift,
             if (!PKSS_ANY(m))
                 continue;
             m = m & pkss_trim_keeps(f, n_az * e + a, x, y);
-            pkss_vf x0 = x[0] - mx[0], x1 = x[1] - mx[1], x2 = x[2] - mx[2];
-            pkss_vf y0 = y[0] - my[0], y1 = y[1] - my[1], y2 = y[2] - my[2];
-            H[0] = H[0] + PKSS_SEL(m, x0 * y0, zero);
-            H[1] = H[1] + PKSS_SEL(m, x0 * y1, zero);
-            H[2] = H[2] + PKSS_SEL(m, x0 * y2, zero);
-            H[3] = H[3] + PKSS_SEL(m, x1 * y0, zero);
-            H[4] = H[4] + PKSS_SEL(m, x1 * y1, zero);
-            H[5] = H[5] + PKSS_SEL(m, x1 * y2, zero);
-            H[6] = H[6] + PKSS_SEL(m, x2 * y0, zero);
-            H[7] = H[7] + PKSS_SEL(m, x2 * y1, zero);
-            H[8] = H[8] + PKSS_SEL(m, x2 * y2, zero);
-            nx = nx + PKSS_SEL(m, x0 * x0 + x1 * x1 + x2 * x2, zero);
-            ny = ny + PKSS_SEL(m, y0 * y0 + y1 * y1 + y2 * y2, zero);
+            k = k + PKSS_ONE_IF(m);
+            for (int d = 0; d < 3; ++d) {
+                x[d] = PKSS_SEL(m, x[d], zero);
+                y[d] = PKSS_SEL(m, y[d], zero);
+                sx[d] = sx[d] + x[d];
+                sy[d] = sy[d] + y[d];
+            }
+            for (int i = 0; i < 3; ++i)
+                for (int j = 0; j < 3; ++j)
+                    H[3 * i + j] = H[3 * i + j] + x[i] * y[j];
+            nx = nx + (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
+            ny = ny + (y[0] * y[0] + y[1] * y[1] + y[2] * y[2]);
         }
-    *nx_out = nx;
-    *ny_out = ny;
+    pkss_vf inv_k = 1.0f / PKSS_TO_VF(PKSS_SEL(k > 0, k, PKSS_VI(1)));
+    for (int d = 0; d < 3; ++d) {
+        mx[d] = sx[d] * inv_k;
+        my[d] = sy[d] * inv_k;
+    }
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+            H[3 * i + j] = H[3 * i + j] - sx[i] * my[j];
+    nx = nx - (sx[0] * mx[0] + sx[1] * mx[1] + sx[2] * mx[2]);
+    ny = ny - (sy[0] * my[0] + sy[1] * my[1] + sy[2] * my[2]);
+    *nx_out = PKSS_SEL(nx > 0.0f, nx, zero);
+    *ny_out = PKSS_SEL(ny > 0.0f, ny, zero);
+    return k;
 }
 
 /* Fills f->res with every template cell's residual under f (a value no  */
@@ -662,13 +647,13 @@ PKSS_INLINE pkss_vf pkss_score_lanes(PKSS_CONST float *src, int shift,
     f.on = 0;
     f.cached = 0;
     pkss_vf mx[3], my[3], H[9], nx, ny, sv[3], V[9];
-    pkss_vi k = pkss_pair_means(src, shift, tgt, tgt_stride, n_az, &f, mx, my);
+    pkss_vi k = pkss_pair_moments(src, shift, tgt, tgt_stride, n_az, &f, mx, my, H,
+                                  &nx, &ny);
     pkss_vi valid = (k >= PKSS_MIN_MATCHED) &
                     !(PKSS_TO_VF(k) < PKSS_MIN_COVERAGE * PKSS_TO_VF(tgt_occupied)) &
                     !(PKSS_TO_VF(k) < PKSS_VF(src_cover * (float)src_occupied));
     if (!PKSS_ANY(valid))
         return PKSS_VF(PKSS_HALF_PI_F);
-    pkss_pair_cov(src, shift, tgt, tgt_stride, n_az, &f, mx, my, H, &nx, &ny);
     int trim = keep < 1.0f;
     /* the trimmed G needs V as well: one SVD serves both */
     pkss_vf g = pkss_measure_moments(H, nx, ny, &valid, sv, trim ? V : 0);
@@ -701,8 +686,8 @@ PKSS_INLINE pkss_vf pkss_score_lanes(PKSS_CONST float *src, int shift,
         lo = PKSS_SEL(enough, lo, f.tau);
     }
     f.tau = hi;
-    pkss_vi k2 = pkss_pair_means(src, shift, tgt, tgt_stride, n_az, &f, mx, my);
-    pkss_pair_cov(src, shift, tgt, tgt_stride, n_az, &f, mx, my, H, &nx, &ny);
+    pkss_vi k2 = pkss_pair_moments(src, shift, tgt, tgt_stride, n_az, &f, mx, my, H,
+                                   &nx, &ny);
     ok = ok & (k2 >= PKSS_MIN_MATCHED);
     pkss_vf g2 = pkss_measure_moments(H, nx, ny, &ok, sv, 0);
     return PKSS_SEL(ok, g2, g);
