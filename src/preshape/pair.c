@@ -26,9 +26,9 @@ static void build_worker(void *arg)
 /* While the helper builds the target, the caller keeps the progress
  * callback alive (cancellation stays prompt), waking every
  * PKSS_WAIT_TICK seconds or as soon as the job is done. */
-static void wait_ticking(pkss_context *ctx, unsigned long ticket)
+static void wait_ticking(pkss_context *ctx, pkss__helper *helper, unsigned long ticket)
 {
-    while (!pkss__helper_wait(&ctx->run->helper, ticket, PKSS_WAIT_TICK))
+    while (!pkss__helper_wait(helper, ticket, PKSS_WAIT_TICK))
         pkss__tick(ctx->run);
 }
 
@@ -54,7 +54,7 @@ pkss_status pkss__cloud_build_pair(pkss_context *ctx, const double *source,
     unsigned long ticket = pkss__helper_offer(helper, build_worker, &jobs[1]);
     build_worker(&jobs[0]);
     if (ticket)
-        wait_ticking(ctx, ticket);
+        wait_ticking(ctx, helper, ticket);
     else
         build_worker(&jobs[1]);
     /* the source's error first, as in a sequential run */
