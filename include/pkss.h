@@ -397,7 +397,8 @@ typedef struct pkss_counts {
     uint64_t input;       /* n given */
     uint64_t nonfinite;   /* dropped as NaN/Inf (drop_nonfinite on) */
     uint64_t thinned;     /* after dropping duplicates, voxel thinning and
-                             the uniform subset culling sees (8 m at most) */
+                             the uniform subset culling sees (at most a
+                             fixed multiple of m: docs/design.md step 4b) */
     uint64_t after_mutual;/* after mutual-kNN culling */
     uint64_t after_stat;  /* after the statistical filter */
     uint64_t resampled;   /* m, or fewer if the cleaned cloud is smaller */
