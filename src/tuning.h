@@ -49,7 +49,8 @@
 /* ---- Outlier culling (preshape/cull.c; k = PKSS_KNN_K) ---------------- */
 /* culling sees at most this many points per resampled point (m), a seeded
  * uniform subset: its kNN statistics are relative to the density, which a
- * uniform subset keeps, and FPS still picks each of its m among ~4 */
+ * uniform subset keeps, and FPS still picks each of its m among about
+ * that many (docs/tuning.md) */
 #define PKSS_CULL_SUBSET 4
 /* statistical filter (SPEC 2.3): far (d_i > STAT_FAR s_i) and off the
  * local plane (h_i > STAT_OFF_PLANE s_i; SPEC: 1.5), or sparse

@@ -457,7 +457,7 @@ class Counts(_Value):
 
     input: int  #: points given
     nonfinite: int  #: dropped as NaN/Inf (drop_nonfinite=True)
-    thinned: int  #: after duplicates, voxel thinning and the culling subset (a few m at most)
+    thinned: int  #: after duplicates, voxel thinning and the culling subset (<= a multiple of m)
     after_mutual: int  #: after mutual-kNN outlier culling
     after_stat: int  #: after the statistical outlier filter
     resampled: int  #: resampled points (``points``, or fewer)
