@@ -261,6 +261,11 @@
 #define ICP_CONVERGED 1e-6
 /* fewer pairs keep the pose (SPEC 6) */
 #define ICP_MIN_PAIRS 10
+/* a rigid stage keeps a pair whose partner lies beneath its point: the
+ * offset along the partner's surface within this share of the gate (1.5 h
+ * at the floor); beyond the other cloud's rim the nearest partner lies
+ * beside the point, on the rim, and pulls the rims together */
+#define ICP_BENEATH 0.5
 /* coverage distance, in spacings (the coarser cloud's) */
 #define ICP_OVERLAP_DIST 2.0
 /* the fit's distance: a box part turned 180 degrees covers as much within

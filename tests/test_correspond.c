@@ -238,6 +238,87 @@ static void test_remembered_answers_equal_fresh_queries(void **state)
     walk(&r, 0, 3000, 700, NULL);
 }
 
+/* A flat grid sheet, x in [x0, x0 + (nx - 1) g], y in [y0, ...], z = 0, its
+ * points mapped by the inverse of T (world = T x), with T's normals. */
+static double *flat_grid(double x0, double y0, int nx, int ny, double g,
+                         const pkss__pose *T, double **normal)
+{
+    double *x = malloc(3 * (size_t)(nx * ny) * sizeof(double));
+    *normal = malloc(3 * (size_t)(nx * ny) * sizeof(double));
+    assert_non_null(x);
+    assert_non_null(*normal);
+    const double up[3] = {0.0, 0.0, 1.0};
+    double zero[3] = {0.0, 0.0, 0.0}, origin[3], tip[3];
+    pkss__pose_inverse_apply(T, zero, origin);
+    pkss__pose_inverse_apply(T, up, tip);
+    for (int i = 0; i < nx * ny; ++i) {
+        double world[3] = {x0 + g * (i % nx), y0 + g * (i / nx), 0.0};
+        pkss__pose_inverse_apply(T, world, x + 3 * i);
+        for (int d = 0; d < 3; ++d) /* R^T e_z: T's inverse is R^T (y - t) / s */
+            (*normal)[3 * i + d] = (tip[d] - origin[d]) * T->s;
+    }
+    return x;
+}
+
+/* Pairs beneath (pkss__pairs_beneath): two flat sheets overlapping on half
+ * their width, the source under a similarity. A point beyond the other
+ * sheet's rim pairs with the rim, beside it: such pairs go, in both
+ * directions; the overlap's pairs stay. tol is in each side's units. A view
+ * without normals keeps every pair. */
+static void test_pairs_beneath_drop_rim_pairs(void **state)
+{
+    (void)state;
+    const double g = 0.1, tol = 1.5 * g, c = cos(0.7), sn = sin(0.7);
+    pkss__pose T = {.s = 2.0, .R = {1, 0, 0, 0, c, -sn, 0, sn, c}, .t = {1.0, 2.0, 3.0}};
+    pkss__pose I = identity_pose();
+    double *tn, *sn_;
+    side tgt, src;
+    side_make(&tgt, flat_grid(0.0, -2.0, 41, 41, g, &I, &tn), 41 * 41);
+    side_make(&src, flat_grid(-1.95, -1.95, 40, 40, g, &T, &sn_), 40 * 40);
+    tgt.view.normal = tn;
+    src.view.normal = sn_;
+    tgt.view.spacing = g;
+    src.view.spacing = g / T.s;
+    pkss__icp_work w;
+    assert_true(pkss__work_alloc(&w, src.view.m, tgt.view.m, 0));
+    pkss__correspond(&src.view, &tgt.view, &T, 6.0 * g, &w);
+    double d2max = 0.0;
+    size_t nf = pkss__forward_pairs(&w, src.view.m, 0, &d2max);
+    size_t kept = pkss__pairs_beneath(&src.view, &tgt.view, &T, tol, 0, &w, 0, nf);
+    int beyond = 0, k = 0;
+    for (size_t i = 0; i < src.view.m; ++i) {
+        double x = -1.95 + g * (double)(i % 40);
+        beyond += x < -tol && w.fwd[i] != UINT32_MAX;
+        int is_kept = k < (int)kept && w.pi[k] == i;
+        k += is_kept;
+        if (x >= 0.0)
+            assert_true(is_kept);
+        if (x < -tol)
+            assert_false(is_kept);
+    }
+    assert_true(beyond > 0); /* the gate let rim pairs in */
+    size_t nb = pkss__backward_pairs(&w, tgt.view.m, 0, T.s, &d2max);
+    kept = pkss__pairs_beneath(&src.view, &tgt.view, &T, tol / T.s, 1, &w, 0, nb);
+    k = 0;
+    for (size_t j = 0; j < tgt.view.m; ++j) {
+        double x = g * (double)(j % 41);
+        int is_kept = k < (int)kept && w.pj[k] == j;
+        k += is_kept;
+        if (x <= 1.95)
+            assert_true(is_kept);
+        if (x > 1.95 + tol + 1e-9)
+            assert_false(is_kept);
+    }
+    tgt.view.normal = NULL;
+    nf = pkss__forward_pairs(&w, src.view.m, 0, &d2max);
+    assert_int_equal(pkss__pairs_beneath(&src.view, &tgt.view, &T, tol, 0, &w, 0, nf), nf);
+    pkss__work_free(&w);
+    side_free(&src);
+    side_free(&tgt);
+    free(tn);
+    free(sn_);
+}
+
 /* Lookups shared with the call's helper thread in chunks answer as one
  * thread does, bit for bit, whichever thread took which chunk. */
 static void test_shared_answers_equal_one_thread(void **state)
@@ -328,6 +409,7 @@ int main(void)
         cmocka_unit_test(test_remembered_answers_keep_ties),
         cmocka_unit_test(test_tiny_clouds),
         cmocka_unit_test(test_work_counts),
+        cmocka_unit_test(test_pairs_beneath_drop_rim_pairs),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

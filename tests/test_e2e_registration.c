@@ -351,7 +351,7 @@ static void register_part(const char *file, const char *name, part_cut pc, int w
  * around the max-x point, cut away. The first search's winner covers
  * neither cloud; the second search, on the wide grid, finds the part.
  * (The 40 % cuts around the max-y and the max-x point, this test's and
- * test_part_needs_trimmed_measure's cases until the source-side coverage
+ * test_part_rim_pairs_do_not_lead's cases until the source-side coverage
  * guard: that guard loses both, 121 and 172 degrees off. For the max-x
  * cut no rotation within 25 degrees of its truth ranks above 109th of 744
  * on the wide grid, behind pairings of 12-16 matched cells that pass the
@@ -373,14 +373,16 @@ static void test_part_among_few_cell_pairings(void **state)
     register_part(PARASAUROLOPHUS, "parasaurolophus", (part_cut){-1, 0, 1675, 0.5}, 1);
 }
 
-/* Half of the chef, around its min-x point, cut away: the wide grid alone
- * is not enough here. With the paper's G on the wide grid
- * (PKSS_WIDE_KEEP = 1) it ended 170 degrees off; the trimmed G of the
- * second search (pkss_shared.h) finds the part. */
-static void test_part_needs_trimmed_measure(void **state)
+/* Half of the chef, around its min-x point, cut away: the whole's points
+ * beyond the part's rim pair with that rim and pulled a half turn ahead of
+ * the truth in the first search's coarse levels. With the rigid stages'
+ * pairs beneath their points (ICP_BENEATH) the first search places the
+ * part, in contact, and no other search runs. */
+static void test_part_rim_pairs_do_not_lead(void **state)
 {
     (void)state;
-    register_part(CHEF, "chef", (part_cut){0, 1, 0, 0.5}, 1);
+    register_parts(CHEF, "chef", (part_cut){0, 1, 0, 0.5}, (part_cut){0, 0, 0, 0.0},
+                   FIRST_ALONE);
 }
 
 /* A part of a box (one RGB-D view of a milk carton) 20-30 % too large at
@@ -486,7 +488,7 @@ int main(void)
         cmocka_unit_test(test_prepared_cloud_reuse),
         cmocka_unit_test(test_random_similarity_real_scans),
         cmocka_unit_test(test_part_beyond_offset_grid),
-        cmocka_unit_test(test_part_needs_trimmed_measure),
+        cmocka_unit_test(test_part_rim_pairs_do_not_lead),
         cmocka_unit_test(test_part_among_few_cell_pairings),
         cmocka_unit_test(test_part_too_large_at_preshape_scale),
         cmocka_unit_test(test_box_part_slides_on_its_faces),

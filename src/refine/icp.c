@@ -1,7 +1,8 @@
 /* SPDX-License-Identifier: MIT
  * icp.c -- the overlap-aware similarity ICP of SPEC 6 on the resampled
  * pre-shape clouds, as three explicit stages:
- *   - rigid: pairs gated in both directions update R, t with the scale
+ *   - rigid: pairs gated in both directions, each partner beneath its
+ *     point (not beside it, on a rim), update R, t with the scale
  *     frozen (a free scale collapses on partial overlap); the gate starts
  *     at the schedule's gate_start h and decays by ICP_GATE_DECAY to
  *     ICP_GATE_FLOOR h;
@@ -93,16 +94,23 @@ enum { RIGID = 0, SCALE = 1 };
 /* what an iteration decides */
 enum { ITER_GO, ITER_STAGE_DONE, ITER_RUN_DONE };
 
-/* Pairs of one iteration: both directions in the rigid stage; mutual, or
- * the part's one-way pairs, in the scale stage. */
+/* Pairs of one iteration: both directions in the rigid stage, each partner
+ * beneath its point (ICP_BENEATH); mutual, or the part's one-way pairs, in
+ * the scale stage. */
 static size_t stage_pairs(icp_state *r, int stage, double *d2max)
 {
     size_t n = 0;
     int mode = r->sched->free_scale;
+    const double tol = ICP_BENEATH * r->gate; /* template units */
     if (stage == RIGID || mode == PKSS__SCALE_SOURCE_PART)
         n = pkss__forward_pairs(&r->w, r->src->m, n, d2max);
+    if (stage == RIGID)
+        n = pkss__pairs_beneath(r->src, r->tgt, &r->T, tol, 0, &r->w, 0, n);
+    const size_t n_forward = n;
     if (stage == RIGID || mode == PKSS__SCALE_TEMPLATE_PART)
         n = pkss__backward_pairs(&r->w, r->tgt->m, n, r->T.s, d2max);
+    if (stage == RIGID)
+        n = pkss__pairs_beneath(r->src, r->tgt, &r->T, tol / r->T.s, 1, &r->w, n_forward, n);
     if (stage == SCALE && mode == PKSS__SCALE_MUTUAL)
         n = pkss__mutual_pairs(&r->w, r->src->m, d2max);
     return n;
