@@ -266,6 +266,14 @@ size_t pkss__mutual_pairs(pkss__icp_work *w, size_t ns, double *d2max)
     return n;
 }
 
+/* The squared offset of p from q along the surface whose normal at q is nq. */
+static double offset_along_surface2(const double *p, const double *q, const double *nq)
+{
+    double d[3] = {p[0] - q[0], p[1] - q[1], p[2] - q[2]};
+    double across = d[0] * nq[0] + d[1] * nq[1] + d[2] * nq[2];
+    return d[0] * d[0] + d[1] * d[1] + d[2] * d[2] - across * across;
+}
+
 size_t pkss__pairs_beneath(const pkss__icp_view *src, const pkss__icp_view *tgt,
                            const pkss__pose *T, double tol, int backward,
                            pkss__icp_work *w, size_t from, size_t n)
@@ -273,18 +281,22 @@ size_t pkss__pairs_beneath(const pkss__icp_view *src, const pkss__icp_view *tgt,
     const pkss__icp_view *under = backward ? src : tgt;
     if (!under->normal)
         return n;
+    const double tol2 = tol * tol;
     size_t kept = from;
     for (size_t k = from; k < n; ++k) {
         uint32_t i = w->pi[k], j = w->pj[k], u = backward ? i : j;
-        double p[3];
-        if (backward)
-            pkss__pose_inverse_apply(T, tgt->pts + 3 * (size_t)j, p);
-        else
-            pkss__pose_apply(T, src->pts + 3 * (size_t)i, p);
-        const double *q = under->pts + 3 * (size_t)u, *nq = under->normal + 3 * (size_t)u;
-        double d[3] = {p[0] - q[0], p[1] - q[1], p[2] - q[2]};
-        double along = d[0] * nq[0] + d[1] * nq[1] + d[2] * nq[2];
-        if (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] - along * along <= tol * tol) {
+        /* no offset along the surface exceeds the pair's distance */
+        int beneath = (backward ? w->bwd_d2[j] : w->fwd_d2[i]) <= tol2;
+        if (!beneath) {
+            double p[3];
+            if (backward)
+                pkss__pose_inverse_apply(T, tgt->pts + 3 * (size_t)j, p);
+            else
+                pkss__pose_apply(T, src->pts + 3 * (size_t)i, p);
+            beneath = offset_along_surface2(p, under->pts + 3 * (size_t)u,
+                                            under->normal + 3 * (size_t)u) <= tol2;
+        }
+        if (beneath) {
             w->pi[kept] = i;
             w->pj[kept++] = j;
         }
