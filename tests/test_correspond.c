@@ -268,15 +268,15 @@ static double *flat_grid(double x0, double y0, int nx, int ny, double g,
 static void test_pairs_beneath_drop_rim_pairs(void **state)
 {
     (void)state;
-    const double g = 0.1, tol = 1.5 * g, c = cos(0.7), sn = sin(0.7);
-    pkss__pose T = {.s = 2.0, .R = {1, 0, 0, 0, c, -sn, 0, sn, c}, .t = {1.0, 2.0, 3.0}};
+    const double g = 0.1, tol = 1.5 * g, c = cos(0.7), s = sin(0.7);
+    pkss__pose T = {.s = 2.0, .R = {1, 0, 0, 0, c, -s, 0, s, c}, .t = {1.0, 2.0, 3.0}};
     pkss__pose I = identity_pose();
-    double *tn, *sn_;
+    double *tgt_normal, *src_normal;
     side tgt, src;
-    side_make(&tgt, flat_grid(0.0, -2.0, 41, 41, g, &I, &tn), 41 * 41);
-    side_make(&src, flat_grid(-1.95, -1.95, 40, 40, g, &T, &sn_), 40 * 40);
-    tgt.view.normal = tn;
-    src.view.normal = sn_;
+    side_make(&tgt, flat_grid(0.0, -2.0, 41, 41, g, &I, &tgt_normal), 41 * 41);
+    side_make(&src, flat_grid(-1.95, -1.95, 40, 40, g, &T, &src_normal), 40 * 40);
+    tgt.view.normal = tgt_normal;
+    src.view.normal = src_normal;
     tgt.view.spacing = g;
     src.view.spacing = g / T.s;
     pkss__icp_work w;
@@ -315,8 +315,8 @@ static void test_pairs_beneath_drop_rim_pairs(void **state)
     pkss__work_free(&w);
     side_free(&src);
     side_free(&tgt);
-    free(tn);
-    free(sn_);
+    free(tgt_normal);
+    free(src_normal);
 }
 
 /* Lookups shared with the call's helper thread in chunks answer as one

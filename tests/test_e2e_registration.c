@@ -375,9 +375,9 @@ static void test_part_among_few_cell_pairings(void **state)
 
 /* Half of the chef, around its min-x point, cut away: the whole's points
  * beyond the part's rim pair with that rim and pulled a half turn ahead of
- * the truth in the first search's coarse levels. With the rigid stages'
- * pairs beneath their points (ICP_BENEATH) the first search places the
- * part, in contact, and no other search runs. */
+ * the truth in the first search. With the rigid stages' pairs beneath their
+ * points (ICP_BENEATH) the first search places the part, in contact, and no
+ * other search runs. */
 static void test_part_rim_pairs_do_not_lead(void **state)
 {
     (void)state;

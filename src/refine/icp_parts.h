@@ -75,9 +75,10 @@ size_t pkss__backward_pairs(pkss__icp_work *w, size_t nt, size_t n, double s,
                             double *d2max);
 size_t pkss__mutual_pairs(pkss__icp_work *w, size_t ns, double *d2max);
 /* Keeps, of the pairs [from, n), those whose partner lies beneath its
- * point: the point's offset along the partner's surface (normal to its
- * normal) within tol. backward: the pairs are template -> source, tol in
- * source units. Views without normals keep every pair. Returns the count. */
+ * point: the point's offset along the partner's surface (orthogonal to the
+ * partner's normal) within tol. backward: the pairs are template -> source,
+ * tol in source units. Views without normals keep every pair. Returns the
+ * count. */
 size_t pkss__pairs_beneath(const pkss__icp_view *src, const pkss__icp_view *tgt,
                            const pkss__pose *T, double tol, int backward,
                            pkss__icp_work *w, size_t from, size_t n);
