@@ -99,21 +99,23 @@ enum { ITER_GO, ITER_STAGE_DONE, ITER_RUN_DONE };
  * the scale stage. */
 static size_t stage_pairs(icp_state *r, int stage, double *d2max)
 {
-    size_t n = 0;
-    int mode = r->sched->free_scale;
-    const double tol = ICP_BENEATH * r->gate; /* template units */
-    if (stage == RIGID || mode == PKSS__SCALE_SOURCE_PART)
-        n = pkss__forward_pairs(&r->w, r->src->m, n, d2max);
-    if (stage == RIGID)
-        n = pkss__pairs_beneath(r->src, r->tgt, &r->T, tol, 0, &r->w, 0, n);
-    const size_t n_forward = n;
-    if (stage == RIGID || mode == PKSS__SCALE_TEMPLATE_PART)
-        n = pkss__backward_pairs(&r->w, r->tgt->m, n, r->T.s, d2max);
-    if (stage == RIGID)
-        n = pkss__pairs_beneath(r->src, r->tgt, &r->T, tol / r->T.s, 1, &r->w, n_forward, n);
-    if (stage == SCALE && mode == PKSS__SCALE_MUTUAL)
-        n = pkss__mutual_pairs(&r->w, r->src->m, d2max);
-    return n;
+    pkss__icp_work *w = &r->w;
+    if (stage == RIGID) {
+        const double tol = ICP_BENEATH * r->gate; /* template units */
+        size_t n = pkss__forward_pairs(w, r->src->m, 0, d2max);
+        n = pkss__pairs_beneath(r->src, r->tgt, &r->T, tol, 0, w, 0, n);
+        const size_t n_forward = n;
+        n = pkss__backward_pairs(w, r->tgt->m, n, r->T.s, d2max);
+        return pkss__pairs_beneath(r->src, r->tgt, &r->T, tol / r->T.s, 1, w, n_forward, n);
+    }
+    switch (r->sched->free_scale) {
+    case PKSS__SCALE_SOURCE_PART:
+        return pkss__forward_pairs(w, r->src->m, 0, d2max);
+    case PKSS__SCALE_TEMPLATE_PART:
+        return pkss__backward_pairs(w, r->tgt->m, 0, r->T.s, d2max);
+    default:
+        return pkss__mutual_pairs(w, r->src->m, d2max);
+    }
 }
 
 /* Scores the pose on all points into out. */
