@@ -269,9 +269,9 @@ size_t pkss__mutual_pairs(pkss__icp_work *w, size_t ns, double *d2max)
 /* The squared offset of p from q along the surface whose normal at q is nq. */
 static double offset_along_surface2(const double *p, const double *q, const double *nq)
 {
-    double d[3] = {p[0] - q[0], p[1] - q[1], p[2] - q[2]};
-    double across = d[0] * nq[0] + d[1] * nq[1] + d[2] * nq[2];
-    return d[0] * d[0] + d[1] * d[1] + d[2] * d[2] - across * across;
+    const double d[3] = {p[0] - q[0], p[1] - q[1], p[2] - q[2]};
+    const double across = pkss__dot3(d, nq);
+    return pkss__dot3(d, d) - across * across;
 }
 
 size_t pkss__pairs_beneath(const pkss__icp_view *src, const pkss__icp_view *tgt,
