@@ -191,8 +191,10 @@
 
 /* local-feature starts where both clouds are parts (local_match.c): FPFH
  * over the 16 nearest coarse points (~2 coarse spacings, then twice that
- * through the neighbours' histograms), 11 bins per angle (Rusu 2009); 4000
- * samples of 3 matches find a 10 % inlier share with ~98 % odds; a sample's
+ * through the neighbours' histograms), 11 bins per angle (Rusu 2009);
+ * samples of 3 matches: at least 4000 (a 10 % inlier share), and as many
+ * as find the least evidence below (8 inliers of n matches) with 98 % odds,
+ * at most 100 000 (~10-50 ms); a sample's
  * edges agree to 10 % and span >= 3 spacings; the scale within [1/2, 2]
  * (both clouds have unit RMS radius); a match within 2 spacings is an
  * inlier, 8 of them the least evidence; the 8 best basins refitted, the
@@ -200,6 +202,8 @@
 #define PKSS_LOCAL_K 16
 #define PKSS_LOCAL_BINS 11
 #define PKSS_LOCAL_SAMPLES 4000
+#define PKSS_LOCAL_ODDS 0.98
+#define PKSS_LOCAL_SAMPLES_MAX 100000
 #define PKSS_LOCAL_EDGE_TOL 0.1
 #define PKSS_LOCAL_MIN_EDGE 3.0
 #define PKSS_LOCAL_SCALE_MAX 2.0

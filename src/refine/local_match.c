@@ -235,6 +235,19 @@ static void keep_hypothesis(hypothesis *best, size_t *n_best, size_t cap,
     sort_hypotheses(best, *n_best);
 }
 
+/* Samples that draw, with PKSS_LOCAL_ODDS, one triple of inliers where only
+ * the least accepted evidence (PKSS_LOCAL_MIN_INLIERS of the n matches) is
+ * right: 1 - (1 - q)^N >= odds, q the odds of one draw (Fischler and
+ * Bolles 1981); within [PKSS_LOCAL_SAMPLES, PKSS_LOCAL_SAMPLES_MAX]. */
+static long sample_count(size_t n)
+{
+    double q = 1.0;
+    for (int a = 0; a < 3 && (size_t)a < n; ++a)
+        q *= (double)(PKSS_LOCAL_MIN_INLIERS - a) / (double)(n - (size_t)a);
+    double need = q < 1.0 ? ceil(log1p(-PKSS_LOCAL_ODDS) / log1p(-q)) : 0.0;
+    return (long)fmin(fmax(need, PKSS_LOCAL_SAMPLES), PKSS_LOCAL_SAMPLES_MAX);
+}
+
 /* The RANSAC over the matches: the best distinct poses, each refitted on
  * its inliers. */
 static size_t ransac(const pkss__icp_view *s, const pkss__icp_view *t,
@@ -244,7 +257,8 @@ static size_t ransac(const pkss__icp_view *s, const pkss__icp_view *t,
     const double h = t->spacing, reach2 = pow(PKSS_LOCAL_REACH * h, 2);
     size_t n_best = 0;
     uint64_t rng = seed ^ 0x6C6F63616C6D6174ull;
-    for (int it = 0; it < PKSS_LOCAL_SAMPLES; ++it) {
+    const long samples = sample_count(n);
+    for (long it = 0; it < samples; ++it) {
         size_t k[3];
         for (int a = 0; a < 3; ++a)
             k[a] = (size_t)(pkss__splitmix64(&rng) % n);
