@@ -480,12 +480,10 @@ static void test_complete_object_one_full_refinement(void **state)
     complete_object_one_full_refinement(CHEF, "chef", seed + 1);
 }
 
-/* The benchmark's partial-to-partial pair partial/parasaurolophus/1 at base
- * seed 4 (tests/data/README.md): 40 % cut from the source, 30 % from the
- * template. Every cell of both searches misjudges it; the local-feature
- * RANSAC's only right hypothesis has the least evidence (8 inliers of 155
- * matches), which 4000 samples drew for 1 seed in 5. With the samples set by
- * that evidence (local_match.c: sample_count) every seed finds it. */
+/* partial/parasaurolophus/1 at base seed 4 (tests/data/README.md): no search
+ * cell fits it; the local RANSAC's one right hypothesis has the least accepted
+ * evidence (8 inliers of 155 matches), which samples sized by that evidence
+ * (local_match.c: sample_count) find for every seed. */
 static void test_partial_pair_found_by_local_shape_for_every_seed(void **state)
 {
     (void)state;
