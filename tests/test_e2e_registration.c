@@ -57,6 +57,14 @@ static pkss_test_err register_and_score(pkss_context *ctx, const double *src,
     return pkss_test_pose_error(res->T_target_source, T, at);
 }
 
+/* The strict bars of SPEC 7, the translation against `diameter`. */
+static void assert_strict(pkss_test_err e, double diameter)
+{
+    assert_true(e.rot_deg < 5.0);
+    assert_true(e.scale_rel < 0.02);
+    assert_true(e.trans / diameter < 0.02);
+}
+
 typedef struct e2e_stats {
     int cases, ok;
 } e2e_stats;
@@ -314,10 +322,7 @@ static void register_parts(const char *file, const char *name, part_cut pc,
            100 * e.trans / (1.7 * d), res.overlap, res.fit, w->offset_index, res.n_offsets,
            w->search ? "wide" : "paper", (unsigned long long)res.n_evaluations);
     fflush(stdout);
-    /* the strict bars of SPEC 7 */
-    assert_true(e.rot_deg < 5.0);
-    assert_true(e.scale_rel < 0.02);
-    assert_true(e.trans / (1.7 * d) < 0.02);
+    assert_strict(e, 1.7 * d);
     if (from == WIDE_SEARCH) { /* found by the second search, on the wide grid */
         assert_int_equal(res.n_evaluations,
                          2 * (uint64_t)res.n_rotations * res.n_offsets);
@@ -455,9 +460,7 @@ static void complete_object_one_full_refinement(const char *file, const char *na
            name, e.rot_deg, 100 * e.scale_rel, 100 * e.trans / (d * s_gt), res.overlap,
            (unsigned)res.n_candidates, n_full, n_coarse);
     fflush(stdout);
-    assert_true(e.rot_deg < 5.0);
-    assert_true(e.scale_rel < 0.02);
-    assert_true(e.trans / (d * s_gt) < 0.02);
+    assert_strict(e, d * s_gt);
     assert_true(res.overlap >= 0.98);
     assert_int_equal(pkss_test_candidate(ctx, res.winner).stage, PKSS_STAGE_REFINED);
     assert_true(res.n_candidates >= 2);
@@ -506,9 +509,7 @@ static void test_partial_pair_found_by_local_shape_for_every_seed(void **state)
                "%% of the target's diameter, winner from search %u\n",
                seed, e.rot_deg, 100 * e.scale_rel, 100 * e.trans / d, w.search);
         fflush(stdout);
-        assert_true(e.rot_deg < 5.0);
-        assert_true(e.scale_rel < 0.02);
-        assert_true(e.trans / d < 0.02);
+        assert_strict(e, d);
         assert_int_equal(w.search, 3);
     }
     pkss_context_destroy(ctx);

@@ -236,13 +236,13 @@ static void keep_hypothesis(hypothesis *best, size_t *n_best, size_t cap,
 }
 
 /* Samples that draw, with PKSS_LOCAL_ODDS, one triple of inliers where only
- * the least accepted evidence (PKSS_LOCAL_MIN_INLIERS of the n matches) is
- * right: 1 - (1 - q)^N >= odds, q the odds of one draw (Fischler and
- * Bolles 1981); within [PKSS_LOCAL_SAMPLES, PKSS_LOCAL_SAMPLES_MAX]. */
+ * the least accepted evidence (PKSS_LOCAL_MIN_INLIERS of the n >= that many
+ * matches) is right: 1 - (1 - q)^N >= odds, q the odds of one draw (Fischler
+ * and Bolles 1981); within [PKSS_LOCAL_SAMPLES, PKSS_LOCAL_SAMPLES_MAX]. */
 static long sample_count(size_t n)
 {
     double q = 1.0;
-    for (int a = 0; a < 3 && (size_t)a < n; ++a)
+    for (int a = 0; a < 3; ++a)
         q *= (double)(PKSS_LOCAL_MIN_INLIERS - a) / (double)(n - (size_t)a);
     double need = q < 1.0 ? ceil(log1p(-PKSS_LOCAL_ODDS) / log1p(-q)) : 0.0;
     return (long)fmin(fmax(need, PKSS_LOCAL_SAMPLES), PKSS_LOCAL_SAMPLES_MAX);
