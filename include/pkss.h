@@ -450,8 +450,9 @@ typedef struct pkss_candidate {
     double overlap;             /* sqrt(f_s f_t), f = share of each cloud's
                                    resampled points within 2 spacings of
                                    the other, in [0, 1] */
-    double fit;                 /* the same within 1 spacing: picks the
-                                   winner among refined candidates */
+    double fit;                 /* the same within 1 spacing; the winner
+                                   among refined candidates has the highest
+                                   fit * fit / overlap (docs/design.md) */
     uint32_t stage;             /* pkss_candidate_stage: how far it got */
     uint32_t rotation_index;    /* index into the rotation candidate set */
     uint32_t offset_index;      /* index into the offset set of its search */

@@ -152,8 +152,8 @@
 #define PKSS_SCALE_STEP_FINE 0.03
 /* most moves of one scale search */
 #define PKSS_SCALE_MOVES 4
-/* fits closer than this (~10 of 3000 points) are a tie; the lower RMS
- * breaks it */
+/* merits (pkss__icp_merit; the slide search: fits) closer than this (~10
+ * of 3000 points) are a tie; the lower RMS breaks it */
 #define PKSS_OVERLAP_TIE 0.003
 /* Same basin before a full run (refine/basin.c): within these, full
  * refinement would take the second pose where it took the first */

@@ -187,26 +187,28 @@ static void test_scale_stage_runs_while_scale_moves(void **state)
 }
 
 /* The same part and start, the scale stage held to a bar no run can reach
- * (an overlap of 1.5). Without a fit bar the run is stopped; with the fit
- * of a leader that lies on the template less closely than the truth does
- * (half the truth's fit) it goes on to the truth, as the winner is chosen
- * by fit; a fit bar above the truth's stops it again. */
-static void test_fit_bar_keeps_a_closer_run(void **state)
+ * (an overlap of 1.5). Without a merit bar the run is stopped; with the
+ * merit of a leader that lies on the template less closely than the truth
+ * does (half the truth's) it goes on to the truth, as the winner is chosen
+ * by merit; a merit bar above the truth's (1: no pose beats it) stops it
+ * again. */
+static void test_merit_bar_keeps_a_closer_run(void **state)
 {
     (void)state;
     part_fixture f;
     pkss__pose start;
     chef_part_off(&f, &start);
-    const double fit_bars[3] = {0.0, 0.5 * f.truth_fit, 1.0};
+    const double truth_merit = f.truth_fit * f.truth_fit / f.truth_overlap;
+    const double merit_bars[3] = {0.0, 0.5 * truth_merit, 1.0};
     pkss__icp_result r[3];
     for (int k = 0; k < 3; ++k) {
-        const pkss__icp_stops stops = {.scale_bar = 1.5, .fit_bar = fit_bars[k]};
+        const pkss__icp_stops stops = {.scale_bar = 1.5, .merit_bar = merit_bars[k]};
         assert_int_equal(pkss__icp_run(&f.sv, &f.tv, &pkss__schedule_full, &stops, &start,
                                        &r[k]), PKSS_OK);
-        printf("  fit at the truth %.3f; fit bar %.3f: %s after %d iterations, fit %.3f, "
-               "scale %.2f %% off\n", f.truth_fit, fit_bars[k],
-               r[k].abandoned ? "abandoned" : "converged", r[k].iterations, r[k].fit,
-               100 * fabs(r[k].pose.s / f.truth.s - 1.0));
+        printf("  merit at the truth %.3f; merit bar %.3f: %s after %d iterations, merit "
+               "%.3f, scale %.2f %% off\n", truth_merit, merit_bars[k],
+               r[k].abandoned ? "abandoned" : "converged", r[k].iterations,
+               pkss__icp_merit(&r[k]), 100 * fabs(r[k].pose.s / f.truth.s - 1.0));
     }
     assert_true(r[0].abandoned);
     assert_false(r[1].abandoned);
@@ -396,7 +398,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_slide_search_returns_box_part),
         cmocka_unit_test(test_scale_stage_runs_while_scale_moves),
-        cmocka_unit_test(test_fit_bar_keeps_a_closer_run),
+        cmocka_unit_test(test_merit_bar_keeps_a_closer_run),
         cmocka_unit_test(test_shift_search_finds_the_right_walls),
         cmocka_unit_test(test_local_starts_find_a_part_pair),
     };

@@ -181,11 +181,21 @@ static void test_winner_rule(void **state)
         rs->ir[c].rms = rms[c];
     }
     rs->refined[0] = rs->refined[1] = rs->refined[2] = 1; /* 3: stopped */
-    assert_int_equal(pkss__pick_winner(rs), 1); /* highest fit among refined */
-    /* a fit within PKSS_OVERLAP_TIE is a tie that the lower RMS breaks */
-    rs->ir[0].fit = 0.95 - 0.5 * PKSS_OVERLAP_TIE;
+    assert_int_equal(pkss__pick_winner(rs), 1); /* highest merit among refined */
+    /* a merit within PKSS_OVERLAP_TIE is a tie that the lower RMS breaks */
+    const double merit1 = pkss__icp_merit(&rs->ir[1]);
+    rs->ir[0].fit = sqrt((merit1 - 0.5 * PKSS_OVERLAP_TIE) * rs->ir[0].overlap);
     assert_int_equal(pkss__pick_winner(rs), 0);
-    rs->ir[0].fit = 0.95 - 2.0 * PKSS_OVERLAP_TIE;
+    rs->ir[0].fit = sqrt((merit1 - 2.0 * PKSS_OVERLAP_TIE) * rs->ir[0].overlap);
+    assert_int_equal(pkss__pick_winner(rs), 1);
+    /* a lower fit that lies on the surface beats a higher one that lies near
+     * it: partial/milk/0 of tools/identity's base 5, the truth (fit 0.5216,
+     * overlap 0.5486) against a half turn (0.5880 within 0.7110) */
+    rs->ir[0].fit = 0.5880;
+    rs->ir[0].overlap = 0.7110;
+    rs->ir[1].fit = 0.5216;
+    rs->ir[1].overlap = 0.5486;
+    rs->refined[2] = 0;
     assert_int_equal(pkss__pick_winner(rs), 1);
     free(rs);
 }

@@ -412,6 +412,11 @@ double pkss__fit_reaching(const pkss__icp_view *src, const pkss__icp_view *tgt,
     return sqrt(fs * ((double)bwd / (double)tgt->m));
 }
 
+double pkss__icp_merit(const pkss__icp_result *r)
+{
+    return r->overlap > 0.0 ? r->fit * r->fit / r->overlap : 0.0;
+}
+
 /* Coverage overlap: f_s = share of source points with a template point
  * within d, f_t = share of template points with a source point within d,
  * overlap = sqrt(f_s f_t), d = 2 x the coarser of the two spacings (template

@@ -87,7 +87,7 @@ typedef struct icp_state {
     double h, gate, floor_gate;
     double ring[ICP_GAIN_WINDOW + 1];
     int n_ring, it;
-    int beats_fit; /* its fit passed fit_bar: no bar stops it any more */
+    int beats_merit; /* its merit passed merit_bar: no bar stops it any more */
 } icp_state;
 
 enum { RIGID = 0, SCALE = 1 };
@@ -125,12 +125,12 @@ static void score_pose(icp_state *r)
                        &r->out->rms, r->out->cover, &r->out->fit, r->out->fit_cover);
 }
 
-/* Marks the run, scored, abandoned unless its fit beats the fit bar (then
- * it goes on, and no bar stops it any more); returns whether it was. */
+/* Marks the run, scored, abandoned unless its merit beats the merit bar
+ * (then it goes on, and no bar stops it any more); returns whether it was. */
 static int abandon_scored(icp_state *r)
 {
-    r->beats_fit = r->stops.fit_bar > 0.0 && r->out->fit > r->stops.fit_bar;
-    r->out->abandoned = !r->beats_fit;
+    r->beats_merit = r->stops.merit_bar > 0.0 && pkss__icp_merit(r->out) > r->stops.merit_bar;
+    r->out->abandoned = !r->beats_merit;
     if (r->out->abandoned)
         pkss__basins_abandon(r->stops.basins, r->stops.id);
     return r->out->abandoned;
@@ -170,7 +170,7 @@ static int track_overlap(icp_state *r, int stage, const pkss__pose *prev,
     double gain = (ov - old) / ICP_GAIN_WINDOW;
     *stagnant = ov - old < ICP_STAGNANT && change < ICP_SETTLED_MOVE;
     double reach = ov + (gain > 0.0 ? gain : 0.0) * (double)(stage_end - r->it);
-    if (bar > 0.0 && reach < bar && !scale_moving && !r->beats_fit)
+    if (bar > 0.0 && reach < bar && !scale_moving && !r->beats_merit)
         return abandon(r);
     return 0;
 }
@@ -204,7 +204,7 @@ static int iterate(icp_state *r, int stage)
         return ++r->it, ITER_RUN_DONE;
     if (r->stops.basins && at_floor) {
         r->out->duplicate_of = pkss__basins_find(r->stops.basins, &r->T, r->h, r->stops.id,
-                                                 r->beats_fit ? -1.0 : r->stops.scale_bar);
+                                                 r->beats_merit ? -1.0 : r->stops.scale_bar);
         if (r->out->duplicate_of >= 0)
             return ++r->it, ITER_RUN_DONE;
     }
@@ -239,7 +239,7 @@ static int rigid_stage(icp_state *r, pkss_status *st)
     if (!s->free_scale || s->rigid_iters <= 0)
         return ITER_GO;
     /* the rigid stage ended (settled or out of iterations) below its bar */
-    if (r->stops.rigid_bar > 0.0 && !r->beats_fit) {
+    if (r->stops.rigid_bar > 0.0 && !r->beats_merit) {
         score_pose(r);
         if (r->out->overlap < r->stops.rigid_bar && abandon_scored(r))
             return ITER_RUN_DONE;

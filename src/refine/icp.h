@@ -92,14 +92,14 @@ void pkss__basins_abandon(pkss__basins *b, int id);
  * ends below rigid_bar, or either stage projected to end below its bar,
  * stops the run (abandoned). With basins and a free scale, a run that
  * reaches another run's minimum stops there (duplicate_of), and records
- * its own under id. A run that already lies on the template more closely
- * than fit_bar (a fit, 0: none) is not stopped by a bar: the winner is
- * chosen by fit, and a loose overlap can hide the closer fit. */
+ * its own under id. A run whose merit (pkss__icp_merit) already beats
+ * merit_bar (0: none) is not stopped by a bar: the winner is chosen by
+ * merit, and a loose overlap can hide the closer fit. */
 typedef struct pkss__icp_stops {
     double rigid_bar, scale_bar; /* 0: none */
     pkss__basins *basins;
     int id;
-    double fit_bar;
+    double merit_bar;
 } pkss__icp_stops;
 
 typedef struct pkss__icp_result {
@@ -116,6 +116,12 @@ typedef struct pkss__icp_result {
     int abandoned;   /* stopped short of a bar */
     int duplicate_of; /* owner of the known minimum it stopped at, or -1 */
 } pkss__icp_result;
+
+/* What picks the winner: fit^2 / overlap, the fit weighted by the share of
+ * the overlap within the fit distance. A part held near the surface but not
+ * on it (turned end for end, or shrunk into the other's outline) can cover
+ * more within 2 spacings than the truth, less of it within 1 (design.md §4). */
+double pkss__icp_merit(const pkss__icp_result *r);
 
 /* SPEC 6: overlap-aware similarity ICP of the source view onto the template
  * view from init (pre-shape coordinates of both), under the stop rules. */

@@ -354,9 +354,9 @@ pkss_status pkss__stage_full_run(pkss__refinement *rs, size_t c, int scale_known
         PKSS_FORWARD(plan_scale(&rs->v, &scaled, &sched.free_scale));
     /* judged against the leader on all points in the rigid stage (the coarse
      * level may stop mid-way), and in the scale stage against this search's;
-     * neither stops it once it lies closer than the best refined fit */
+     * neither stops it once its merit beats the best refined one */
     pkss__icp_stops stops = {PKSS_FULL_REFINE_RATIO * rs->lead_overlap, rs->lead_here,
-                             &rs->basins, (int)c, rs->lead_fit};
+                             &rs->basins, (int)c, rs->lead_merit};
     pkss__pose start = scaled.pose;
     PKSS_FORWARD(pkss__icp_run(&rs->v.sv, &rs->v.tv, &sched, &stops, &start, r));
     if (r->duplicate_of >= 0 || r->abandoned) {
@@ -370,7 +370,7 @@ pkss_status pkss__stage_full_run(pkss__refinement *rs, size_t c, int scale_known
      * ~0.01-0.03 and made the others' scale stages stop short of it */
     rs->lead_overlap = fmax(rs->lead_overlap, r->overlap_unpolished);
     rs->lead_here = fmax(rs->lead_here, r->overlap_unpolished);
-    rs->lead_fit = fmax(rs->lead_fit, r->fit);
+    rs->lead_merit = fmax(rs->lead_merit, pkss__icp_merit(r));
     rs->explained_here = fmax(rs->explained_here, fmax(r->fit_cover[0], r->fit_cover[1]));
     rs->contact_here |= pkss__in_contact(rs, (int)c);
     return PKSS_OK;
@@ -389,13 +389,14 @@ int pkss__pick_winner(const pkss__refinement *rs)
 {
     int best = -1;
     for (size_t c = 0; c < rs->n; ++c)
-        if (rs->refined[c] && (best < 0 || rs->ir[c].fit > rs->ir[best].fit))
+        if (rs->refined[c] &&
+            (best < 0 || pkss__icp_merit(&rs->ir[c]) > pkss__icp_merit(&rs->ir[best])))
             best = (int)c;
     if (best < 0)
         return 0;
-    double top = rs->ir[best].fit;
+    double top = pkss__icp_merit(&rs->ir[best]);
     for (size_t c = 0; c < rs->n; ++c)
-        if (rs->refined[c] && rs->ir[c].fit >= top - PKSS_OVERLAP_TIE &&
+        if (rs->refined[c] && pkss__icp_merit(&rs->ir[c]) >= top - PKSS_OVERLAP_TIE &&
             rs->ir[c].rms < rs->ir[best].rms)
             best = (int)c;
     return best;

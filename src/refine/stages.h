@@ -30,7 +30,7 @@ typedef struct pkss__refinement {
     /* the leader: the best overlap fully refined (before its polish), in
      * any search and in the current one */
     double lead_overlap, lead_here;
-    double lead_fit; /* the best fit fully refined, in any search */
+    double lead_merit; /* the best merit fully refined, in any search */
     /* the largest share of one cloud that a candidate fully refined in the
      * current search lies on within the fit distance */
     double explained_here;
@@ -90,8 +90,9 @@ pkss_status pkss__stage_full_run(pkss__refinement *rs, size_t c, int scale_known
 /* Overlap scores on all points, at their poses, of candidates list[0..n). */
 pkss_status pkss__stage_score_rest(pkss__refinement *rs, const int *list,
                                    size_t n);
-/* The winner: the fully refined candidate with the highest fit, fits within
- * PKSS_OVERLAP_TIE broken by the lower RMS; candidate 0 when none is. */
+/* The winner: the fully refined candidate with the highest merit
+ * (pkss__icp_merit), merits within PKSS_OVERLAP_TIE broken by the lower RMS;
+ * candidate 0 when none is. */
 int pkss__pick_winner(const pkss__refinement *rs);
 /* Whether candidate w is fully refined and lies on the template in
  * contact: of its points within the overlap distance, PKSS_CONTACT or more
