@@ -198,7 +198,8 @@ static void test_merit_bar_keeps_a_closer_run(void **state)
     part_fixture f;
     pkss__pose start;
     chef_part_off(&f, &start);
-    const double truth_merit = f.truth_fit * f.truth_fit / f.truth_overlap;
+    const pkss__icp_result at_truth = {.fit = f.truth_fit, .overlap = f.truth_overlap};
+    const double truth_merit = pkss__icp_merit(&at_truth);
     const double merit_bars[3] = {0.0, 0.5 * truth_merit, 1.0};
     pkss__icp_result r[3];
     for (int k = 0; k < 3; ++k) {

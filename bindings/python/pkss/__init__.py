@@ -495,7 +495,7 @@ class Candidate(_Value):
     rotation_index: int  #: index into the rotation candidate set
     offset_index: int  #: index into the offset set of its search (see ``search``)
     #: the overlap score within 1 spacing (<= overlap); the winner is the
-    #: refined candidate with the highest fit
+    #: refined candidate with the highest fit * fit / overlap
     fit: float
     #: how far its refinement went: ``"search"`` (the search's pose),
     #: ``"coarse"`` (the coarse rigid level), ``"stopped"`` (full refinement
