@@ -47,6 +47,9 @@ def main():
     import numpy as np
     import pkss
 
+    from methods import check_library
+    check_library(pkss.library_path, os.environ.get("PKSS_LIBRARY", ""))
+
     import cases as C
     from metrics import Evaluator
     rows = [r for r in csv.DictReader(open(os.path.join(args.out, "pairs.csv")))

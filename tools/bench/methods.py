@@ -47,16 +47,28 @@ def compose(T_n, cs, ss, ct, st, extra_scale=1.0):
 _pkss = None
 
 
+def check_library(loaded, wanted):
+    """Raise ImportError unless the bindings loaded `wanted` (a path; "" asks
+    for nothing): their loader tries a library bundled into the package (by
+    `pip install`, editable installs too) before $PKSS_LIBRARY."""
+    if wanted and os.path.realpath(loaded) != os.path.realpath(wanted):
+        raise ImportError(
+            f"pkss: asked for {wanted} but the bindings loaded {loaded}, which their loader "
+            "tries first; remove that library (or reinstall the bindings from this tree) "
+            "to measure the one asked for")
+
+
 def _load_pkss():
     global _pkss
     if _pkss is None:
         if PKSS_LIB:
-            # the bindings from this source tree (no bundled library there),
-            # so their loader takes $PKSS_LIBRARY
+            # the bindings from this source tree, whose loader takes
+            # $PKSS_LIBRARY unless a library is bundled there (checked below)
             os.environ["PKSS_LIBRARY"] = PKSS_LIB
             sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)),
                                             "..", "..", "bindings", "python"))
         import pkss
+        check_library(pkss.library_path, PKSS_LIB)
         _pkss = pkss
     return _pkss
 

@@ -153,3 +153,14 @@ def test_headline_takes_each_case_from_the_first_run_with_it():
     assert "no peer succeeds" in body["30–50 % missing"]
     assert body["half-space cut 45 %"].endswith("| FPFH+RANSAC+scaled ICP 100 % (0.60 s) | 2 |")
     assert len(body) == 3
+
+
+def test_a_library_asked_for_but_not_loaded_is_refused(tmp_path):
+    import methods
+    a, b = tmp_path / "a.so", tmp_path / "b.so"
+    a.write_bytes(b"")
+    b.write_bytes(b"")
+    methods.check_library(str(a), "")  # nothing asked for
+    methods.check_library(str(a), str(tmp_path / "." / "a.so"))  # the same file
+    with pytest.raises(ImportError, match="asked for"):
+        methods.check_library(str(a), str(b))
