@@ -8,6 +8,8 @@
  */
 #include "support.h"
 
+#include "refine/icp.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -552,11 +554,14 @@ static void test_partial_pair_won_by_merit_not_fit(void **state)
     pkss_context *ctx = make_context();
     pkss_result res;
     pkss_test_err e = register_and_score(ctx, p.src, p.ns, p.tgt, p.nt, p.T, &res, "milk parts");
-    int looser = -1; /* a refined candidate with a higher fit and a lower merit */
+    /* a refined candidate with a higher fit and a lower merit */
+    const pkss__icp_result won = {.fit = res.fit, .overlap = res.overlap};
+    int looser = -1;
     for (uint32_t c = 0; c < res.n_candidates; ++c) {
         const pkss_candidate k = pkss_test_candidate(ctx, c);
+        const pkss__icp_result as_k = {.fit = k.fit, .overlap = k.overlap};
         if (c != res.winner && k.stage == PKSS_STAGE_REFINED && k.fit > res.fit &&
-            k.fit * k.fit / k.overlap < res.fit * res.fit / res.overlap)
+            pkss__icp_merit(&as_k) < pkss__icp_merit(&won))
             looser = (int)c;
     }
     printf("  partial milk carton: rot %.3f deg, scale %.3f %%, trans %.3f %% of the target's "

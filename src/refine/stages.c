@@ -388,13 +388,16 @@ pkss_status pkss__stage_score_rest(pkss__refinement *rs, const int *list,
 int pkss__pick_winner(const pkss__refinement *rs)
 {
     int best = -1;
-    for (size_t c = 0; c < rs->n; ++c)
-        if (rs->refined[c] &&
-            (best < 0 || pkss__icp_merit(&rs->ir[c]) > pkss__icp_merit(&rs->ir[best])))
+    double top = 0.0; /* the best merit */
+    for (size_t c = 0; c < rs->n; ++c) {
+        double m = pkss__icp_merit(&rs->ir[c]);
+        if (rs->refined[c] && (best < 0 || m > top)) {
             best = (int)c;
+            top = m;
+        }
+    }
     if (best < 0)
         return 0;
-    double top = pkss__icp_merit(&rs->ir[best]);
     for (size_t c = 0; c < rs->n; ++c)
         if (rs->refined[c] && pkss__icp_merit(&rs->ir[c]) >= top - PKSS_OVERLAP_TIE &&
             rs->ir[c].rms < rs->ir[best].rms)
