@@ -175,13 +175,14 @@
  * vote cells of 2 template spacings, coarsened to at most 16 cells either
  * way (bounds the peak scan); translations up to a quarter of the
  * template's bounding-box diagonal (a wall's width in a room scan); the
- * best 3 distinct peaks with 5 % more votes than the held translation are
- * refined (docs/tuning.md) */
+ * best 3 distinct peaks with at least 95 % of the held translation's votes
+ * are refined: between two partial views the truth can cover less than a
+ * slid pose, and the merit picks (docs/tuning.md) */
 #define PKSS_SHIFT_CELL 2.0
 #define PKSS_SHIFT_MAX_R 16
 #define PKSS_SHIFT_RANGE 0.25
 #define PKSS_SHIFT_TRIALS 3
-#define PKSS_SHIFT_GAIN 0.05
+#define PKSS_SHIFT_SHARE 0.95
 /* the vote's blocks of template points: 4 cells a side (a source point's
  * reach spans ~4 of them each way); the grid's coarsening keeps them to
  * 17 per axis, the cap of 32 only bounds memory; they order the work, the

@@ -7,8 +7,8 @@
  * translation cell in which some template point meets it (binned from the
  * exact differences, so no grid alignment decides): a cell's votes are
  * the share of the source that translation would cover. Distinct peaks
- * with clearly more votes than the held translation become candidates,
- * refined as every other (stages.c: pkss__stage_shift).
+ * with about as many votes as the held translation or more become
+ * candidates, refined as every other (stages.c: pkss__stage_shift).
  */
 #include "refine/icp_parts.h"
 
@@ -302,9 +302,10 @@ pkss_status pkss__shift_starts(const pkss__icp_view *src_coarse,
                 s.votes = votes_at(acc, r, s.k);
                 keep_best(best, &n_best, &s);
             }
-    /* a start gathers PKSS_SHIFT_GAIN more votes than the held translation:
-     * the part on other walls, not the held pose's own spread */
-    const double bar = (1.0 + PKSS_SHIFT_GAIN) * votes_at(acc, r, (const int[3]){0, 0, 0});
+    /* a start gathers nearly the held translation's votes, or more: the part
+     * on other walls covers more, a partial view slid back onto its truth
+     * may cover a little less (its merit, not its cover, wins it) */
+    const double bar = PKSS_SHIFT_SHARE * votes_at(acc, r, (const int[3]){0, 0, 0});
     for (int b = 0; b < n_best && *n_starts < max && best[b].votes > bar; ++b) {
         pkss__pose *p = starts + (*n_starts)++;
         *p = *held;
