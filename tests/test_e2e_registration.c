@@ -513,6 +513,31 @@ static void free_bundled_pair(bundled_pair *p)
     free(p->tgt);
 }
 
+/* One registration of a bundled pair on a fresh context, scored against its
+ * truth; the caller inspects ctx and res, then calls end_bundled_run. */
+typedef struct bundled_run {
+    bundled_pair p;
+    pkss_context *ctx;
+    pkss_result res;
+    pkss_test_err e;
+    double d; /* the target's diameter */
+} bundled_run;
+
+static void run_bundled(const char *stem, const char *label, bundled_run *r)
+{
+    r->p = load_bundled_pair(stem);
+    r->d = pkss_test_diameter(r->p.tgt, r->p.nt);
+    r->ctx = make_context();
+    r->e = register_and_score(r->ctx, r->p.src, r->p.ns, r->p.tgt, r->p.nt, r->p.T, &r->res,
+                              label);
+}
+
+static void end_bundled_run(bundled_run *r)
+{
+    pkss_context_destroy(r->ctx);
+    free_bundled_pair(&r->p);
+}
+
 /* partial/parasaurolophus/1 at base seed 4: no search cell fits it; the
  * local RANSAC's one right hypothesis has the least accepted evidence (8
  * inliers of 155 matches), which samples sized by that evidence
@@ -549,31 +574,28 @@ static void test_partial_pair_found_by_local_shape_for_every_seed(void **state)
 static void test_partial_pair_won_by_merit_not_fit(void **state)
 {
     (void)state;
-    bundled_pair p = load_bundled_pair("milk_partial");
-    const double d = pkss_test_diameter(p.tgt, p.nt);
-    pkss_context *ctx = make_context();
-    pkss_result res;
-    pkss_test_err e = register_and_score(ctx, p.src, p.ns, p.tgt, p.nt, p.T, &res, "milk parts");
+    bundled_run r;
+    run_bundled("milk_partial", "milk parts", &r);
+    const pkss_result *res = &r.res;
     /* a refined candidate with a higher fit and a lower merit */
-    const pkss__icp_result won = {.fit = res.fit, .overlap = res.overlap};
+    const pkss__icp_result won = {.fit = res->fit, .overlap = res->overlap};
     int looser = -1;
-    for (uint32_t c = 0; c < res.n_candidates; ++c) {
-        const pkss_candidate k = pkss_test_candidate(ctx, c);
+    for (uint32_t c = 0; c < res->n_candidates; ++c) {
+        const pkss_candidate k = pkss_test_candidate(r.ctx, c);
         const pkss__icp_result as_k = {.fit = k.fit, .overlap = k.overlap};
-        if (c != res.winner && k.stage == PKSS_STAGE_REFINED && k.fit > res.fit &&
+        if (c != res->winner && k.stage == PKSS_STAGE_REFINED && k.fit > res->fit &&
             pkss__icp_merit(&as_k) < pkss__icp_merit(&won))
             looser = (int)c;
     }
     printf("  partial milk carton: rot %.3f deg, scale %.3f %%, trans %.3f %% of the target's "
            "diameter, fit %.4f within overlap %.4f; a looser candidate: %d; %u alternatives\n",
-           e.rot_deg, 100 * e.scale_rel, 100 * e.trans / d, res.fit, res.overlap, looser,
-           res.n_alternatives);
+           r.e.rot_deg, 100 * r.e.scale_rel, 100 * r.e.trans / r.d, res->fit, res->overlap,
+           looser, res->n_alternatives);
     fflush(stdout);
-    assert_strict(e, d);
+    assert_strict(r.e, r.d);
     assert_true(looser >= 0);
-    assert_true(res.ambiguous && res.n_alternatives >= 1);
-    pkss_context_destroy(ctx);
-    free_bundled_pair(&p);
+    assert_true(res->ambiguous && res->n_alternatives >= 1);
+    end_bundled_run(&r);
 }
 
 /* The same family at base seed 6 (tests/data/README.md): the searches'
@@ -586,27 +608,24 @@ static void test_partial_pair_won_by_merit_not_fit(void **state)
 static void test_partial_pair_slid_back_by_the_shift_search(void **state)
 {
     (void)state;
-    bundled_pair p = load_bundled_pair("milk_slid");
-    const double d = pkss_test_diameter(p.tgt, p.nt);
-    pkss_context *ctx = make_context();
-    pkss_result res;
-    pkss_test_err e = register_and_score(ctx, p.src, p.ns, p.tgt, p.nt, p.T, &res, "milk slid");
-    const pkss_candidate w = pkss_test_candidate(ctx, res.winner);
+    bundled_run r;
+    run_bundled("milk_slid", "milk slid", &r);
+    const pkss_candidate w = pkss_test_candidate(r.ctx, r.res.winner);
     double widest = 0.0; /* the most covering refined candidate */
-    for (uint32_t c = 0; c < res.n_candidates; ++c) {
-        const pkss_candidate k = pkss_test_candidate(ctx, c);
+    for (uint32_t c = 0; c < r.res.n_candidates; ++c) {
+        const pkss_candidate k = pkss_test_candidate(r.ctx, c);
         if (k.stage == PKSS_STAGE_REFINED)
             widest = fmax(widest, k.overlap);
     }
     printf("  slid milk carton: rot %.3f deg, scale %.3f %%, trans %.3f %% of the target's "
            "diameter; winner from search %u, overlap %.4f (the widest refined %.4f)\n",
-           e.rot_deg, 100 * e.scale_rel, 100 * e.trans / d, w.search, res.overlap, widest);
+           r.e.rot_deg, 100 * r.e.scale_rel, 100 * r.e.trans / r.d, w.search, r.res.overlap,
+           widest);
     fflush(stdout);
-    assert_strict(e, d);
+    assert_strict(r.e, r.d);
     assert_int_equal(w.search, 2);
-    assert_true(widest > res.overlap + 0.03);
-    pkss_context_destroy(ctx);
-    free_bundled_pair(&p);
+    assert_true(widest > r.res.overlap + 0.03);
+    end_bundled_run(&r);
 }
 
 int main(void)
