@@ -135,6 +135,9 @@ def test_progress_exception_propagates():
 _SIGINT_CHILD = textwrap.dedent("""
     import os, signal, sys, threading, time
     import numpy as np, pkss
+    # Python's own SIGINT handler, as in a terminal: a job started in the
+    # background by a shell without job control inherits SIGINT ignored
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     rng = np.random.default_rng(0)
     a = rng.normal(size=(20000, 3)) * [3, 2, 1]
     b = a @ np.linalg.qr(rng.normal(size=(3, 3)))[0].T
