@@ -175,7 +175,7 @@
  * vote cells of 2 template spacings, coarsened to at most 16 cells either
  * way (bounds the peak scan); translations up to a quarter of the
  * template's bounding-box diagonal (a wall's width in a room scan); the
- * best 3 distinct peaks with at least 95 % of the held translation's votes
+ * best 3 distinct peaks with more than 95 % of the held translation's votes
  * are refined: between two partial views the truth can cover less than a
  * slid pose, and the merit picks (docs/tuning.md) */
 #define PKSS_SHIFT_CELL 2.0
