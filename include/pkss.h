@@ -464,7 +464,11 @@ typedef struct pkss_candidate {
                                    are parts (no grid: rotation_index and
                                    offset_index UINT32_MAX; scores: the
                                    paper's G at its start pose; added
-                                   after 1.0) */
+                                   after 1.0); 4: a shift of a candidate
+                                   at another rotation, where the winner
+                                   lies astray (its rotation and scale,
+                                   another translation; its grid indices;
+                                   added after 1.0) */
 } pkss_candidate;
 
 /** How far a candidate's refinement went (pkss_candidate.stage). */

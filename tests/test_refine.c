@@ -284,9 +284,9 @@ static void test_shift_search_finds_the_right_walls(void **state)
         held.t[d] -= 1.5 * R0[3 * d] / tgt->sigma;
     pkss__pose starts[PKSS_SHIFT_TRIALS];
     size_t n = 0;
+    const pkss__shift_ask ask = {PKSS_SHIFT_TRIALS, PKSS_SHIFT_SHARE, PKSS_SHIFT_TRIALS};
     double t0 = pkss__now();
-    assert_int_equal(pkss__shift_starts(&svc, &tv, &held, PKSS_SHIFT_TRIALS, starts, &n),
-                     PKSS_OK);
+    assert_int_equal(pkss__shift_starts(&svc, &tv, &held, &ask, starts, &n), PKSS_OK);
     double took = pkss__now() - t0;
     const double cell = PKSS_SHIFT_CELL * tv.spacing;
     double nearest = HUGE_VAL;
@@ -306,14 +306,13 @@ static void test_shift_search_finds_the_right_walls(void **state)
     svc.run = tv.run = &run;
     pkss__pose shared[PKSS_SHIFT_TRIALS];
     size_t n_shared = 0;
-    assert_int_equal(pkss__shift_starts(&svc, &tv, &held, PKSS_SHIFT_TRIALS, shared,
-                                        &n_shared), PKSS_OK);
+    assert_int_equal(pkss__shift_starts(&svc, &tv, &held, &ask, shared, &n_shared),
+                     PKSS_OK);
     pkss__run_end(ctx);
     svc.run = tv.run = NULL;
     assert_int_equal(n_shared, n);
     assert_memory_equal(shared, starts, n * sizeof *starts);
-    assert_int_equal(pkss__shift_starts(&svc, &tv, &truth, PKSS_SHIFT_TRIALS, starts, &n),
-                     PKSS_OK);
+    assert_int_equal(pkss__shift_starts(&svc, &tv, &truth, &ask, starts, &n), PKSS_OK);
     printf("  at the truth: %zu starts\n", n);
     assert_int_equal(n, 0);
     pkss_cloud_destroy(src);

@@ -151,14 +151,23 @@ pkss_status pkss__icp_slide_search(const pkss__icp_view *src,
 pkss_status pkss__local_starts(const pkss__icp_view *src_coarse,
                                const pkss__icp_view *tgt_coarse, uint64_t seed,
                                size_t max, pkss__pose *starts, size_t *n_starts);
-/* Translations of held (its rotation and scale kept) at which clearly more
- * of the source's coarse points meet a template point than at held's (a
- * vote per point and translation cell), at most max (<= PKSS_SHIFT_TRIALS),
- * best first, each more than a cell from the others and from held
- * (shift_search.c). */
+/* What a translation search asks for: the `peaks` best distinct vote peaks
+ * (at most PKSS_SHIFT_PEAKS_MAX), of which those with more than `share` of
+ * the held translation's votes become starts, at most max of them. */
+#define PKSS_SHIFT_PEAKS_MAX PKSS_RESHIFT_PEAKS
+typedef struct pkss__shift_ask {
+    int peaks;
+    double share;
+    size_t max;
+} pkss__shift_ask;
+/* Translations of held (its rotation and scale kept) at which more of the
+ * source's coarse points meet a template point than ask->share of those at
+ * held's (a vote per point and translation cell), most votes first, each
+ * more than a cell from the others and from held (shift_search.c). */
 pkss_status pkss__shift_starts(const pkss__icp_view *src_coarse,
                               const pkss__icp_view *tgt, const pkss__pose *held,
-                              size_t max, pkss__pose *starts, size_t *n_starts);
+                              const pkss__shift_ask *ask, pkss__pose *starts,
+                              size_t *n_starts);
 /* Overlap score (coverage), RMS of the mutual pairs and the fit (fit may be
  * NULL) at pose. */
 pkss_status pkss__icp_overlap(const pkss__icp_view *src,

@@ -2,9 +2,10 @@
  * register.c -- PKSS-Align end to end (Algorithm 1; docs/design.md): both
  * clouds onto the pre-shape space (preshape/), the global search over
  * rotations x centre offsets (search/), the refinement stages (stages.c),
- * a wide second search, starts from local shape, a shift search and a
- * slide search where the winner shows a part, and the winner composed back
- * into the caller's coordinates.
+ * a wide second search, starts from local shape, a shift search (from
+ * other rotations too where the winner lies astray) and a slide search
+ * where the winner shows a part, and the winner composed back into the
+ * caller's coordinates.
  */
 #include "refine/ahead.h"
 #include "refine/assess.h"
@@ -279,6 +280,23 @@ static pkss_status shift_stage(pkss_context *ctx, pkss__refinement *rs, int *w)
     return PKSS_OK;
 }
 
+/* The shift search from other rotations where the winner lies astray, and
+ * the winner again, timed. */
+static pkss_status reshift_stage(pkss_context *ctx, pkss__refinement *rs, int *w)
+{
+    if (!ctx->params.refine)
+        return PKSS_OK;
+    double t0 = pkss__now();
+    size_t added = 0;
+    pkss_status st = pkss__stage_reshift(rs, *w, &added);
+    if (st != PKSS_OK)
+        return fail_step(ctx, st);
+    if (added)
+        *w = pkss__pick_winner(rs);
+    rs->refine_seconds += pkss__now() - t0;
+    return PKSS_OK;
+}
+
 /* The slide search on the winner, timed. */
 static pkss_status slide_stage(pkss_context *ctx, pkss__refinement *rs, int w)
 {
@@ -295,7 +313,7 @@ static pkss_status slide_stage(pkss_context *ctx, pkss__refinement *rs, int w)
 /* The candidates and the winner in caller coordinates (pkss_result). */
 static void report(const pkss_cloud *src, const pkss_cloud *tgt,
                    const pkss__refinement *rs, size_t n_first, size_t n_searched,
-                   size_t n_local, int best, outcome *out)
+                   size_t n_local, size_t n_shifted, int best, outcome *out)
 {
     pkss_result *res = &out->res;
     for (size_t c = 0; c < rs->n; ++c) {
@@ -313,7 +331,11 @@ static void report(const pkss_cloud *src, const pkss_cloud *tgt,
         cand->stage = rs->stage[c];
         cand->rotation_index = pk->rotation;
         cand->offset_index = pk->offset;
-        cand->search = c < n_first ? 0u : c < n_searched ? 1u : c < n_local ? 3u : 2u;
+        cand->search = c < n_first      ? 0u
+                       : c < n_searched ? 1u
+                       : c < n_local    ? 3u
+                       : c < n_shifted  ? 2u
+                                        : 4u;
     }
     compose(src, tgt, &rs->ir[best].pose, res->T_target_source, &res->scale,
             res->rotation, res->translation);
@@ -369,11 +391,14 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
     const size_t n_local = rs->n;
     if ((st = shift_stage(ctx, rs, &best)) != PKSS_OK)
         goto done;
+    const size_t n_shifted = rs->n;
+    if ((st = reshift_stage(ctx, rs, &best)) != PKSS_OK)
+        goto done;
     if ((st = slide_stage(ctx, rs, best)) != PKSS_OK)
         goto done;
     out->res.n_rotations = (uint32_t)ss->rot.n_rotations;
     out->res.n_offsets = (uint32_t)ss->n_offsets;
-    report(src, tgt, rs, n_first, n_searched, n_local, best, out);
+    report(src, tgt, rs, n_first, n_searched, n_local, n_shifted, best, out);
     /* How far to trust it: alternatives, symmetry, confidence (assess.c). */
     pkss__assess_input ai = {&rs->v.sv, &rs->v.tv, &rs->v.svc, &rs->v.tvc, tgt->sigma,
                              tgt->centroid, rs->ir, out->cand, rs->n, best,

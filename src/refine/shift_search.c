@@ -7,8 +7,9 @@
  * translation cell in which some template point meets it (binned from the
  * exact differences, so no grid alignment decides): a cell's votes are
  * the share of the source that translation would cover. Distinct peaks
- * with about as many votes as the held translation or more become
- * candidates, refined as every other (stages.c: pkss__stage_shift).
+ * with the caller's share of the held translation's votes become starts
+ * (stages.c: pkss__stage_shift refines them as every other candidate,
+ * pkss__stage_reshift ranks them first).
  */
 #include "refine/icp_parts.h"
 
@@ -25,9 +26,9 @@ static int within_a_cell(const int *a, const int *b)
     return abs(a[0] - b[0]) <= 1 && abs(a[1] - b[1]) <= 1 && abs(a[2] - b[2]) <= 1;
 }
 
-/* Keeps the PKSS_SHIFT_TRIALS best peaks (most votes first), each more
- * than a cell from the others and from the held translation (k = 0). */
-static void keep_best(peak *best, int *n_best, const peak *s)
+/* Keeps the `cap` best peaks (most votes first), each more than a cell
+ * from the others and from the held translation (k = 0). */
+static void keep_best(peak *best, int *n_best, int cap, const peak *s)
 {
     static const int zero[3] = {0, 0, 0};
     if (within_a_cell(s->k, zero))
@@ -40,10 +41,10 @@ static void keep_best(peak *best, int *n_best, const peak *s)
             at = b;
         }
     if (at < 0) {
-        if (*n_best < PKSS_SHIFT_TRIALS)
+        if (*n_best < cap)
             at = (*n_best)++;
-        else if (s->votes > best[PKSS_SHIFT_TRIALS - 1].votes)
-            at = PKSS_SHIFT_TRIALS - 1;
+        else if (s->votes > best[cap - 1].votes)
+            at = cap - 1;
         else
             return;
     }
@@ -272,10 +273,13 @@ static double votes_at(const float *acc, int r, const int *k)
 
 pkss_status pkss__shift_starts(const pkss__icp_view *src_coarse,
                               const pkss__icp_view *tgt, const pkss__pose *held,
-                              size_t max, pkss__pose *starts, size_t *n_starts)
+                              const pkss__shift_ask *ask, pkss__pose *starts,
+                              size_t *n_starts)
 {
     *n_starts = 0;
-    if (!(tgt->spacing > 0.0) || src_coarse->m == 0 || tgt->m == 0 || max == 0)
+    const size_t max = ask->max;
+    if (!(tgt->spacing > 0.0) || src_coarse->m == 0 || tgt->m == 0 || max == 0 ||
+        ask->peaks < 1 || ask->peaks > PKSS_SHIFT_PEAKS_MAX)
         return PKSS_OK;
     double cell = 0.0;
     const int r = grid_of(tgt, &cell);
@@ -293,19 +297,19 @@ pkss_status pkss__shift_starts(const pkss__icp_view *src_coarse,
         pkss__pose_apply(held, src_coarse->pts + 3 * i, y + 3 * i);
     if ((st = cast_votes(y, m, tgt, cell, r, acc, stamp)) != PKSS_OK)
         goto done;
-    peak best[PKSS_SHIFT_TRIALS];
+    peak best[PKSS_SHIFT_PEAKS_MAX];
     int n_best = 0;
     for (int c = -r; c <= r; ++c)
         for (int b = -r; b <= r; ++b)
             for (int a = -r; a <= r; ++a) {
                 peak s = {{a, b, c}, 0.0};
                 s.votes = votes_at(acc, r, s.k);
-                keep_best(best, &n_best, &s);
+                keep_best(best, &n_best, ask->peaks, &s);
             }
-    /* a start gathers nearly the held translation's votes, or more: the part
-     * on other walls covers more, a partial view slid back onto its truth
-     * may cover a little less (its merit, not its cover, wins it) */
-    const double bar = PKSS_SHIFT_SHARE * votes_at(acc, r, (const int[3]){0, 0, 0});
+    /* a start gathers the asked share of the held translation's votes: the
+     * part on other walls covers more, a partial view slid back onto its
+     * truth may cover less (its merit, not its cover, wins it) */
+    const double bar = ask->share * votes_at(acc, r, (const int[3]){0, 0, 0});
     for (int b = 0; b < n_best && *n_starts < max && best[b].votes > bar; ++b) {
         pkss__pose *p = starts + (*n_starts)++;
         *p = *held;

@@ -441,6 +441,20 @@ int pkss__shift_wanted(const pkss__refinement *rs, int w)
     return shows_part(rs, w) && !lies_on(rs, w, PKSS_PLACED);
 }
 
+/* A full run of candidate w moved to start, appended as a new candidate
+ * (scale known: a shift keeps its searched scale). */
+static pkss_status run_shifted(pkss__refinement *rs, int w, const pkss__pose *start)
+{
+    size_t c = rs->n++;
+    rs->picks[c] = rs->picks[w];
+    rs->ir[c] = rs->ir[w]; /* its coverages choose the scale pairs */
+    rs->ir[c].pose = *start;
+    rs->st[c] = PKSS_OK;
+    rs->refined[c] = 1; /* cleared by the run if it stops short */
+    rs->stage[c] = PKSS_STAGE_SEARCH;
+    return pkss__stage_full_run(rs, c, 1);
+}
+
 pkss_status pkss__stage_shift(pkss__refinement *rs, int w, size_t *added)
 {
     *added = 0;
@@ -448,20 +462,93 @@ pkss_status pkss__stage_shift(pkss__refinement *rs, int w, size_t *added)
         return PKSS_OK;
     pkss__pose starts[PKSS_SHIFT_TRIALS];
     size_t room = PKSS_MAX_CANDIDATES - rs->n, n = 0;
-    PKSS_FORWARD(pkss__shift_starts(&rs->v.svc, &rs->v.tv, &rs->ir[w].pose,
-                                    room < PKSS_SHIFT_TRIALS ? room : PKSS_SHIFT_TRIALS,
-                                    starts, &n));
-    for (size_t k = 0; k < n; ++k) {
-        size_t c = rs->n++;
-        rs->picks[c] = rs->picks[w];
-        rs->ir[c] = rs->ir[w]; /* its coverages choose the scale pairs */
-        rs->ir[c].pose = starts[k];
-        rs->st[c] = PKSS_OK;
-        rs->refined[c] = 1; /* cleared by the run if it stops short */
-        rs->stage[c] = PKSS_STAGE_SEARCH;
-        PKSS_FORWARD(pkss__stage_full_run(rs, c, 1));
-    }
+    const pkss__shift_ask ask = {PKSS_SHIFT_TRIALS, PKSS_SHIFT_SHARE,
+                                 room < PKSS_SHIFT_TRIALS ? room : PKSS_SHIFT_TRIALS};
+    PKSS_FORWARD(pkss__shift_starts(&rs->v.svc, &rs->v.tv, &rs->ir[w].pose, &ask, starts, &n));
+    for (size_t k = 0; k < n; ++k)
+        PKSS_FORWARD(run_shifted(rs, w, &starts[k]));
     *added = n;
+    return PKSS_OK;
+}
+
+/* ---- the shift search from other rotations ------------------------------ */
+
+_Static_assert(PKSS_SHIFT_TRIALS <= PKSS_SHIFT_PEAKS_MAX, "the winner's shift peaks");
+
+int pkss__astray(const pkss__refinement *rs, int w)
+{
+    const pkss__icp_result *r = &rs->ir[w];
+    return pkss__shift_wanted(rs, w) && r->fit < PKSS_ASTRAY * r->overlap;
+}
+
+/* The next source: the candidate scored on all points (refined or stopped)
+ * with the best merit, at a rotation PKSS_RUN_BASIN_DEG or more from every
+ * one in done[0..n_done), or -1. */
+static int next_source(const pkss__refinement *rs, size_t n, const int *done, int n_done)
+{
+    const double apart = PKSS_RUN_BASIN_DEG * PKSS_PI / 180.0;
+    int best = -1;
+    for (size_t c = 0; c < n; ++c) {
+        const int scored = rs->stage[c] == PKSS_STAGE_STOPPED ||
+                           rs->stage[c] == PKSS_STAGE_REFINED;
+        if (!scored || !(rs->ir[c].overlap > 0.0))
+            continue;
+        int far = 1;
+        for (int k = 0; k < n_done && far; ++k)
+            far = pkss__rotation_angle(rs->ir[c].pose.R, rs->ir[done[k]].pose.R) >= apart;
+        if (far && (best < 0 || pkss__icp_merit(&rs->ir[c]) > pkss__icp_merit(&rs->ir[best])))
+            best = (int)c;
+    }
+    return best;
+}
+
+/* The merit of a short rigid settle from pose on all points (the coarse
+ * views' fit distance is twice as wide and cannot tell a slid part from
+ * its truth); the settled pose in *settled. */
+static pkss_status settled_merit(const pkss__refinement *rs, const pkss__pose *pose,
+                                 pkss__pose *settled, double *merit)
+{
+    pkss__icp_result r;
+    PKSS_FORWARD(pkss__icp_run(&rs->v.sv, &rs->v.tv, &pkss__schedule_settle, NULL, pose, &r));
+    *settled = r.pose;
+    *merit = pkss__icp_merit(&r);
+    return PKSS_OK;
+}
+
+pkss_status pkss__stage_reshift(pkss__refinement *rs, int w, size_t *added)
+{
+    *added = 0;
+    if (!pkss__astray(rs, w))
+        return PKSS_OK;
+    pkss__pose held;
+    double bar;
+    PKSS_FORWARD(settled_merit(rs, &rs->ir[w].pose, &held, &bar));
+    const size_t n = rs->n;
+    int done[PKSS_RESHIFT_SOURCES + 1] = {w};
+    for (int k = 1; k <= PKSS_RESHIFT_SOURCES && rs->n < PKSS_MAX_CANDIDATES; ++k) {
+        const int c = next_source(rs, n, done, k);
+        if (c < 0)
+            break;
+        done[k] = c;
+        pkss__pose starts[PKSS_RESHIFT_PEAKS], best = {0}, settled;
+        size_t m = 0;
+        const pkss__shift_ask ask = {PKSS_RESHIFT_PEAKS, PKSS_RESHIFT_SHARE, PKSS_RESHIFT_PEAKS};
+        PKSS_FORWARD(pkss__shift_starts(&rs->v.svc, &rs->v.tv, &rs->ir[c].pose, &ask, starts, &m));
+        /* only a start that, settled, already lies on the template more
+         * closely than the winner gets a full run: the best of them */
+        double top = bar, merit;
+        for (size_t j = 0; j < m; ++j) {
+            PKSS_FORWARD(settled_merit(rs, &starts[j], &settled, &merit));
+            if (merit > top) {
+                top = merit;
+                best = settled;
+            }
+        }
+        if (top > bar) {
+            PKSS_FORWARD(run_shifted(rs, c, &best));
+            ++*added;
+        }
+    }
     return PKSS_OK;
 }
 

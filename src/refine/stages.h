@@ -5,7 +5,8 @@
  * wants_full_run, stage_full_run), the rest scored (stage_score_rest).
  * After the searches: the winner (pick_winner), starts from local shape
  * (stage_local) and the winner again, the shift search (stage_shift) and
- * the winner again, then the slide search (stage_slide).
+ * the winner again, the shift search from other rotations (stage_reshift)
+ * and the winner again, then the slide search (stage_slide).
  */
 #ifndef PKSS_REFINE_STAGES_H
 #define PKSS_REFINE_STAGES_H
@@ -113,6 +114,15 @@ int pkss__shift_wanted(const pkss__refinement *rs, int w);
  * translations of it that land more points (shift_search.c) become
  * candidates (*added of them, appended) and get full runs. */
 pkss_status pkss__stage_shift(pkss__refinement *rs, int w, size_t *added);
+/* Whether winner w, where the shift search runs on it, lies astray: less
+ * than PKSS_ASTRAY of its overlap lies within the fit distance. */
+int pkss__astray(const pkss__refinement *rs, int w);
+/* The shift search from other rotations where winner w lies astray: the
+ * candidates scored on all points at up to PKSS_RESHIFT_SOURCES other
+ * rotations (best merit first) each vote (shift_search.c); each one's peaks
+ * are settled on all points, and its best, if its merit there beats the
+ * winner's settled the same way, gets a full run (*added of them). */
+pkss_status pkss__stage_reshift(pkss__refinement *rs, int w, size_t *added);
 /* The slide search on winner w when it does not cover both clouds. */
 pkss_status pkss__stage_slide(pkss__refinement *rs, int w);
 
