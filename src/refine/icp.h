@@ -154,7 +154,8 @@ pkss_status pkss__local_starts(const pkss__icp_view *src_coarse,
 /* What a translation search asks for: the `peaks` best distinct vote peaks
  * (at most PKSS_SHIFT_PEAKS_MAX), of which those with more than `share` of
  * the held translation's votes become starts, at most max of them. */
-#define PKSS_SHIFT_PEAKS_MAX PKSS_RESHIFT_PEAKS
+#define PKSS_SHIFT_PEAKS_MAX \
+    (PKSS_RESHIFT_PEAKS > PKSS_SHIFT_TRIALS ? PKSS_RESHIFT_PEAKS : PKSS_SHIFT_TRIALS)
 typedef struct pkss__shift_ask {
     int peaks;
     double share;

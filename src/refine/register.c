@@ -264,31 +264,18 @@ static pkss_status local_stage(pkss_context *ctx, const pkss__search_setup *ss,
     return PKSS_OK;
 }
 
-/* The shift search on the winner and the winner again, timed. */
-static pkss_status shift_stage(pkss_context *ctx, pkss__refinement *rs, int *w)
-{
-    if (!ctx->params.refine)
-        return PKSS_OK;
-    double t0 = pkss__now();
-    size_t added = 0;
-    pkss_status st = pkss__stage_shift(rs, *w, &added);
-    if (st != PKSS_OK)
-        return fail_step(ctx, st);
-    if (added)
-        *w = pkss__pick_winner(rs);
-    rs->refine_seconds += pkss__now() - t0;
-    return PKSS_OK;
-}
+/* A stage that appends candidates around the winner (stages.h: the shift
+ * search, and the one from other rotations), then the winner again, timed. */
+typedef pkss_status (*adding_stage)(pkss__refinement *rs, int w, size_t *added);
 
-/* The shift search from other rotations where the winner lies astray, and
- * the winner again, timed. */
-static pkss_status reshift_stage(pkss_context *ctx, pkss__refinement *rs, int *w)
+static pkss_status add_and_pick(pkss_context *ctx, pkss__refinement *rs, int *w,
+                                adding_stage stage)
 {
     if (!ctx->params.refine)
         return PKSS_OK;
     double t0 = pkss__now();
     size_t added = 0;
-    pkss_status st = pkss__stage_reshift(rs, *w, &added);
+    pkss_status st = stage(rs, *w, &added);
     if (st != PKSS_OK)
         return fail_step(ctx, st);
     if (added)
@@ -389,10 +376,10 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
     if ((st = local_stage(ctx, ss, rs, &best, &local)) != PKSS_OK)
         goto done;
     const size_t n_local = rs->n;
-    if ((st = shift_stage(ctx, rs, &best)) != PKSS_OK)
+    if ((st = add_and_pick(ctx, rs, &best, pkss__stage_shift)) != PKSS_OK)
         goto done;
     const size_t n_shifted = rs->n;
-    if ((st = reshift_stage(ctx, rs, &best)) != PKSS_OK)
+    if ((st = add_and_pick(ctx, rs, &best, pkss__stage_reshift)) != PKSS_OK)
         goto done;
     if ((st = slide_stage(ctx, rs, best)) != PKSS_OK)
         goto done;

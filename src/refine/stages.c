@@ -473,8 +473,6 @@ pkss_status pkss__stage_shift(pkss__refinement *rs, int w, size_t *added)
 
 /* ---- the shift search from other rotations ------------------------------ */
 
-_Static_assert(PKSS_SHIFT_TRIALS <= PKSS_SHIFT_PEAKS_MAX, "the winner's shift peaks");
-
 int pkss__astray(const pkss__refinement *rs, int w)
 {
     const pkss__icp_result *r = &rs->ir[w];
