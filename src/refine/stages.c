@@ -502,13 +502,14 @@ static int next_source(const pkss__refinement *rs, size_t n, const int *done, in
 
 /* The merit of a short rigid settle from pose on all points (the coarse
  * views' fit distance is twice as wide and cannot tell a slid part from
- * its truth); the settled pose in *settled. */
+ * its truth); the settled pose in *settled unless it is NULL. */
 static pkss_status settled_merit(const pkss__refinement *rs, const pkss__pose *pose,
                                  pkss__pose *settled, double *merit)
 {
     pkss__icp_result r;
     PKSS_FORWARD(pkss__icp_run(&rs->v.sv, &rs->v.tv, &pkss__schedule_settle, NULL, pose, &r));
-    *settled = r.pose;
+    if (settled)
+        *settled = r.pose;
     *merit = pkss__icp_merit(&r);
     return PKSS_OK;
 }
@@ -518,9 +519,8 @@ pkss_status pkss__stage_reshift(pkss__refinement *rs, int w, size_t *added)
     *added = 0;
     if (!pkss__astray(rs, w))
         return PKSS_OK;
-    pkss__pose held;
-    double bar;
-    PKSS_FORWARD(settled_merit(rs, &rs->ir[w].pose, &held, &bar));
+    double bar; /* the winner's merit, settled as the peaks are */
+    PKSS_FORWARD(settled_merit(rs, &rs->ir[w].pose, NULL, &bar));
     const size_t n = rs->n;
     int done[PKSS_RESHIFT_SOURCES + 1] = {w};
     for (int k = 1; k <= PKSS_RESHIFT_SOURCES && rs->n < PKSS_MAX_CANDIDATES; ++k) {
