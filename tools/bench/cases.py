@@ -351,13 +351,25 @@ def case_seed(base: int, *parts) -> int:
     return int(np.random.SeedSequence([base, h]).generate_state(1)[0])
 
 
-def make_synthetic(obj: str, case: str, index: int, base_seed: int = 0) -> Case:
+def split_samples(x, seed):
+    """Two disjoint random halves of x: two samplings of one surface, so
+    that at the truth no source point lies on a target point (as between
+    two scans; the same points in both reward sample coincidence)."""
+    perm = np.random.default_rng([seed, 1]).permutation(len(x))
+    half = len(x) // 2
+    return x[np.sort(perm[:half])], x[np.sort(perm[half:])]
+
+
+def make_synthetic(obj: str, case: str, index: int, base_seed: int = 0,
+                   disjoint: bool = False) -> Case:
+    """One generated pair; disjoint: source and target from disjoint halves
+    of the model's points (split_samples), else both from all of them."""
     seed = case_seed(base_seed, obj, case, index)
     rng = np.random.default_rng(seed)
     tmpl = load_object(obj)
-    x = tmpl.copy()
-    meta = {}
-    target, clean, scale_range = tmpl, None, 2.0
+    x, tmpl_t = split_samples(tmpl, seed) if disjoint else (tmpl.copy(), tmpl)
+    meta = {"disjoint": True} if disjoint else {}
+    target, clean, scale_range = tmpl_t, None, 2.0
     if case == "similarity":
         pass
     elif case == "density":
@@ -383,14 +395,14 @@ def make_synthetic(obj: str, case: str, index: int, base_seed: int = 0) -> Case:
         meta["missing"] = 0.45
     elif case == "partial":
         x, _ = halfspace_cut(x, rng, 0.40)
-        target, _ = halfspace_cut(tmpl, rng, 0.30)
+        target, _ = halfspace_cut(tmpl_t, rng, 0.30)
         clean = tmpl
         meta["missing"] = 0.40
     elif case == "stripes":
         x, meta["density_axis"] = density_bands(x, rng, keep=0.0)
     elif case == "allpert":
         x, _ = halfspace_cut(x, rng, 0.40)
-        target, _ = halfspace_cut(tmpl, rng, 0.20)
+        target, _ = halfspace_cut(tmpl_t, rng, 0.20)
         clean = tmpl
         meta["missing"] = 0.40
         x, meta["density_axis"] = density_bands(x, rng)

@@ -5,6 +5,7 @@ import os
 import sys
 
 import numpy as np
+from scipy.spatial import cKDTree
 import pytest
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -43,6 +44,28 @@ def test_random_rotation_is_rotation():
         R = C.random_rotation(rng)
         assert np.allclose(R @ R.T, np.eye(3), atol=1e-12)
         assert np.isclose(np.linalg.det(R), 1.0)
+
+
+@needs_data
+@pytest.mark.parametrize("case", ["similarity", "partial", "allpert"])
+def test_disjoint_pairs_share_no_point(case):
+    # two samplings of one surface: at the truth no source point lies on a
+    # target point, yet each lies within the model's own spacing of one
+    a = C.make_synthetic("chef", case, 0, 0, disjoint=True)
+    b = C.make_synthetic("chef", case, 0, 0, disjoint=True)
+    assert np.array_equal(a.source, b.source) and np.array_equal(a.target, b.target)
+    tmpl = C.load_object("chef")
+    x = C.apply(a.T_gt, a.source)
+    d, _ = cKDTree(a.target).query(x)
+    own, _ = cKDTree(tmpl).query(tmpl, k=2)
+    assert np.median(d) > 1e-6 * C.diameter(tmpl)
+    assert np.median(d) < 3.0 * np.median(own[:, 1])
+    if case == "similarity":
+        assert len(a.source) + len(a.target) == len(tmpl)
+        # without the split every point has its twin
+        shared = C.make_synthetic("chef", case, 0, 0)
+        d, _ = cKDTree(shared.target).query(C.apply(shared.T_gt, shared.source))
+        assert np.max(d) < 1e-9 * C.diameter(tmpl)
 
 
 @needs_data

@@ -26,10 +26,10 @@ def pair_items(seeds, real_seeds, cases, objects=None):
     return items + [("r", p, None, i) for i in range(real_seeds) for p in C.REAL_PAIRS]
 
 
-def make_case(item, base_seed):
+def make_case(item, base_seed, disjoint=False):
     """The cases.Case of one item of pair_items."""
     kind, name, case, i = item
-    return (C.make_synthetic(name, case, i, base_seed) if kind == "s"
+    return (C.make_synthetic(name, case, i, base_seed, disjoint) if kind == "s"
             else C.make_real(name, i, base_seed))
 
 
@@ -43,13 +43,16 @@ def main():
                     help="synthetic cases (cases.SYNTH_CASES, cases.HARD_CASES)")
     ap.add_argument("--objects", nargs="*",
                     help="object models (default cases.OBJECTS; cases.HOLDOUT_OBJECTS too)")
+    ap.add_argument("--disjoint", action="store_true",
+                    help="source and target from disjoint halves of each model's points "
+                         "(cases.split_samples), as two scans sample a surface")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     items = pair_items(a.seeds, a.real_seeds, a.cases, a.objects)
     with open(os.path.join(a.out, "manifest.txt"), "w") as man:
         for n, item in enumerate(items):
             try:
-                cs = make_case(item, a.base_seed)
+                cs = make_case(item, a.base_seed, a.disjoint)
             except (OSError, KeyError, ValueError) as e:
                 _, name, case, i = item
                 print(f"skip {name}/{case}/{i}: {e}", file=sys.stderr)

@@ -40,11 +40,12 @@ def main():
     ap.add_argument("--base-seed", type=int, default=0)
     ap.add_argument("--cases", nargs="*", default=C.SYNTH_CASES)
     ap.add_argument("--objects", nargs="*", help="as given to export_pairs.py")
+    ap.add_argument("--disjoint", action="store_true", help="as given to export_pairs.py")
     a = ap.parse_args()
     evaluators = {}
     for item in E.pair_items(a.seeds, a.real_seeds, a.cases, a.objects):
         try:
-            cs = E.make_case(item, a.base_seed)
+            cs = E.make_case(item, a.base_seed, a.disjoint)
         except (OSError, KeyError, ValueError):
             continue  # export_pairs.py skipped it too
         evaluators[cs.case_id] = Evaluator(cs)
