@@ -22,17 +22,18 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 
 
-def run_seed(results_md):
-    """The base seed of the run.py command recorded in results.md's header."""
+def run_args(results_md):
+    """The base seed and the --disjoint flag of the run.py command recorded in
+    results.md's header."""
     try:
         with open(results_md, encoding="utf-8") as f:
             for line in f:
                 if line.startswith("- command:"):
                     m = re.search(r"--seed (\d+)", line)
-                    return int(m.group(1)) if m else 0
+                    return (int(m.group(1)) if m else 0), bool(re.search(r"--disjoint\b", line))
     except OSError:
         pass
-    return 0
+    return 0, False
 
 
 def main():
@@ -42,8 +43,9 @@ def main():
                     help="the run's base seed (default: the --seed of the command "
                          "in OUT/results.md, else run.py's default 0)")
     args = ap.parse_args()
+    seed, disjoint = run_args(os.path.join(args.out, "results.md"))
     if args.seed is None:
-        args.seed = run_seed(os.path.join(args.out, "results.md"))
+        args.seed = seed
     import numpy as np
     import pkss
 
@@ -68,7 +70,7 @@ def main():
         kind, obj, idx = r["case_id"].split("/")
         idx = int(idx)
         case = (C.make_real(obj, idx, args.seed) if kind == "real"
-                else C.make_synthetic(obj, kind, idx, args.seed))
+                else C.make_synthetic(obj, kind, idx, args.seed, disjoint))
         ev = Evaluator(case)
         res = pkss.register(case.source, case.target, seed=int(case.seed % (2 ** 31)))
         win = ev(res.transform)

@@ -97,11 +97,11 @@ def plan(args):
     return [("synth", s) for s in synth] + [("real", r) for r in real]
 
 
-def make_case(item, base_seed):
+def make_case(item, base_seed, disjoint=False):
     import cases as C
     kind, p = item
     if kind == "synth":
-        return C.make_synthetic(p[1], p[0], p[2], base_seed)
+        return C.make_synthetic(p[1], p[0], p[2], base_seed, disjoint)
     return C.make_real(p[0], p[1], base_seed)
 
 
@@ -134,6 +134,9 @@ def main(argv=None):
     ap.add_argument("--threads", type=int, default=1,
                     help="threads every method may use (OMP etc.; default 1)")
     ap.add_argument("--seed", type=int, default=0, help="base seed of the generator")
+    ap.add_argument("--disjoint", action="store_true",
+                    help="generated pairs: source and target from disjoint halves of each "
+                         "model's points (cases.split_samples), as two scans sample a surface")
     ap.add_argument("--resume", action="store_true",
                     help="keep rows already in OUT/pairs.csv and run only the missing ones")
     ap.add_argument("--rerun", nargs="*", default=[],
@@ -215,7 +218,7 @@ def main(argv=None):
             with open(csv_path, "a", newline="") as f:
                 wr = csv.DictWriter(f, FIELDS)
                 for cid, (it, ms) in by_item.items():
-                    case = make_case(it, args.seed)
+                    case = make_case(it, args.seed, args.disjoint)
                     ev = Evaluator(case)
                     for m in ms:
                         status, T, dt, info, msg = workers[m].call(case.source, case.target,
