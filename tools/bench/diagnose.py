@@ -30,7 +30,8 @@ def run_args(results_md):
             for line in f:
                 if line.startswith("- command:"):
                     m = re.search(r"--seed (\d+)", line)
-                    return (int(m.group(1)) if m else 0), bool(re.search(r"--disjoint\b", line))
+                    disjoint = bool(re.search(r"--disjoint\b", line))
+                    return (int(m.group(1)) if m else 0), disjoint
     except OSError:
         pass
     return 0, False
