@@ -467,8 +467,9 @@ typedef struct pkss_candidate {
                                    after 1.0); 4: a shift of a candidate
                                    at another rotation, where the winner
                                    lies astray (its rotation and scale,
-                                   another translation; its grid indices;
-                                   added after 1.0) */
+                                   another translation; added after 1.0).
+                                   Shifts (2, 4) keep their source's grid
+                                   indices: UINT32_MAX if it was a 3 */
 } pkss_candidate;
 
 /** How far a candidate's refinement went (pkss_candidate.stage). */

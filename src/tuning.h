@@ -184,12 +184,11 @@
 #define PKSS_SHIFT_TRIALS 3
 #define PKSS_SHIFT_SHARE 0.95
 /* the shift search from other rotations (stages.c:pkss__stage_reshift): a
- * winner with less than 0.6 of its overlap within the fit distance lies
- * astray (of the hard families' winners only wrong ones read below it,
- * 0.25-0.59; right ones 0.61 and up, noisy parts the lowest); the 5
- * best-merit candidates at other rotations each vote, and their 12 best
- * peaks above half the held votes are settled on all points, whose fit
- * ranks them where coverage and the coarse views' fit cannot */
+ * winner with less than 0.6 of its overlap within the fit distance is held
+ * near the template, not on it (docs/tuning.md: set on pairs that share
+ * their points); the 5 best-merit candidates at other rotations each vote,
+ * and their 12 best peaks above half the held votes are settled on all
+ * points, whose fit ranks them where coverage and coarse views cannot */
 #define PKSS_ASTRAY 0.6
 #define PKSS_RESHIFT_SOURCES 5
 #define PKSS_RESHIFT_PEAKS 12
