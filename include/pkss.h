@@ -467,9 +467,13 @@ typedef struct pkss_candidate {
                                    after 1.0); 4: a shift of a candidate
                                    at another rotation, where the winner
                                    lies astray (its rotation and scale,
-                                   another translation; added after 1.0).
-                                   Shifts (2, 4) keep their source's grid
-                                   indices: UINT32_MAX if it was a 3 */
+                                   another translation; added after 1.0);
+                                   5: the winner at another scale where
+                                   both clouds are parts (its rotation,
+                                   another scale and translation; added
+                                   after 1.0). Shifts (2, 4, 5) keep their
+                                   source's grid indices: UINT32_MAX if it
+                                   was a 3 */
 } pkss_candidate;
 
 /** How far a candidate's refinement went (pkss_candidate.stage). */

@@ -193,6 +193,14 @@
 #define PKSS_RESHIFT_SOURCES 5
 #define PKSS_RESHIFT_PEAKS 12
 #define PKSS_RESHIFT_SHARE 0.5
+/* the scale sweep at the winner's rotation (stages.c:pkss__stage_rescale):
+ * where both clouds are parts, the overlap-driven scale stages can draw one
+ * into the other's outline; the scales from the winner's toward the
+ * pre-shape ratio, in steps of 15 % (within half a step, 7 %, a full
+ * run's scale stage takes over), at most 4 (a factor of 1.75), each vote
+ * as the other rotations' do */
+#define PKSS_RESCALE_STEP 1.15
+#define PKSS_RESCALE_STEPS 4
 /* the vote's blocks of template points: 4 cells a side (a source point's
  * reach spans ~4 of them each way); the grid's coarsening keeps them to
  * 17 per axis, the cap of 32 only bounds memory; they order the work, the

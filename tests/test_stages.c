@@ -261,6 +261,34 @@ static void test_placed_rule(void **state)
     free(rs);
 }
 
+/* The scale sweep runs where both clouds are parts, over the whole steps
+ * between the winner's scale and the pre-shape ratio, either way. */
+static void test_rescale_steps(void **state)
+{
+    (void)state;
+    const double ov[1] = {0.5};
+    pkss__refinement *rs = set_of(ov, 1);
+    const double half = sqrt(PKSS_RESCALE_STEP);
+    rs->ir[0].cover[0] = 0.8;
+    rs->ir[0].cover[1] = 0.5;
+    rs->ir[0].pose.s = 0.8;
+    assert_int_equal(pkss__rescale_steps(rs, 0), 0); /* not refined */
+    rs->refined[0] = 1;
+    assert_int_equal(pkss__rescale_steps(rs, 0), 2); /* 0.8 = 1.15^-1.6 */
+    rs->ir[0].pose.s = 1.0 / 0.8;
+    assert_int_equal(pkss__rescale_steps(rs, 0), 2);
+    rs->ir[0].pose.s = 1.01 / half;
+    assert_int_equal(pkss__rescale_steps(rs, 0), 0); /* within half a step */
+    rs->ir[0].pose.s = 0.99 / half;
+    assert_int_equal(pkss__rescale_steps(rs, 0), 1);
+    rs->ir[0].pose.s = 0.1;
+    assert_int_equal(pkss__rescale_steps(rs, 0), PKSS_RESCALE_STEPS);
+    /* a cloud covered wholly fixes the scale (the part modes): no sweep */
+    rs->ir[0].cover[0] = PKSS_PART_COVERED;
+    assert_int_equal(pkss__rescale_steps(rs, 0), 0);
+    free(rs);
+}
+
 static void test_part_mode(void **state)
 {
     (void)state;
@@ -297,6 +325,7 @@ int main(void)
         cmocka_unit_test(test_winner_rule),
         cmocka_unit_test(test_contact_rule),
         cmocka_unit_test(test_placed_rule),
+        cmocka_unit_test(test_rescale_steps),
         cmocka_unit_test(test_part_mode),
         cmocka_unit_test(test_schedules_defined_once),
     };

@@ -297,10 +297,26 @@ static pkss_status slide_stage(pkss_context *ctx, pkss__refinement *rs, int w)
     return PKSS_OK;
 }
 
+/* Candidate counts after each stage that adds some: which search a
+ * candidate came from (pkss_candidate.search). */
+typedef struct stage_ends {
+    size_t first, searched, local, shifted, reshifted;
+} stage_ends;
+
+static uint32_t search_of(const stage_ends *e, size_t c)
+{
+    return c < e->first       ? 0u
+           : c < e->searched  ? 1u
+           : c < e->local     ? 3u
+           : c < e->shifted   ? 2u
+           : c < e->reshifted ? 4u
+                              : 5u;
+}
+
 /* The candidates and the winner in caller coordinates (pkss_result). */
 static void report(const pkss_cloud *src, const pkss_cloud *tgt,
-                   const pkss__refinement *rs, size_t n_first, size_t n_searched,
-                   size_t n_local, size_t n_shifted, int best, outcome *out)
+                   const pkss__refinement *rs, const stage_ends *ends, int best,
+                   outcome *out)
 {
     pkss_result *res = &out->res;
     for (size_t c = 0; c < rs->n; ++c) {
@@ -318,11 +334,7 @@ static void report(const pkss_cloud *src, const pkss_cloud *tgt,
         cand->stage = rs->stage[c];
         cand->rotation_index = pk->rotation;
         cand->offset_index = pk->offset;
-        cand->search = c < n_first      ? 0u
-                       : c < n_searched ? 1u
-                       : c < n_local    ? 3u
-                       : c < n_shifted  ? 2u
-                                        : 4u;
+        cand->search = search_of(ends, c);
     }
     compose(src, tgt, &rs->ir[best].pose, res->T_target_source, &res->scale,
             res->rotation, res->translation);
@@ -338,7 +350,8 @@ static void report(const pkss_cloud *src, const pkss_cloud *tgt,
 
 /* Algorithm 1 after pre-processing: the search set-up, the first search
  * and its refinement, the wide second search, the local-feature starts,
- * the shift and slide searches, and the report. */
+ * the shift searches (the winner's, from other rotations, at other
+ * scales), the slide search, and the report. */
 static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
                        const pkss_cloud *tgt, outcome *out)
 {
@@ -381,11 +394,15 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
     const size_t n_shifted = rs->n;
     if ((st = add_and_pick(ctx, rs, &best, pkss__stage_reshift)) != PKSS_OK)
         goto done;
+    const size_t n_reshifted = rs->n;
+    if ((st = add_and_pick(ctx, rs, &best, pkss__stage_rescale)) != PKSS_OK)
+        goto done;
     if ((st = slide_stage(ctx, rs, best)) != PKSS_OK)
         goto done;
     out->res.n_rotations = (uint32_t)ss->rot.n_rotations;
     out->res.n_offsets = (uint32_t)ss->n_offsets;
-    report(src, tgt, rs, n_first, n_searched, n_local, n_shifted, best, out);
+    const stage_ends ends = {n_first, n_searched, n_local, n_shifted, n_reshifted};
+    report(src, tgt, rs, &ends, best, out);
     /* How far to trust it: alternatives, symmetry, confidence (assess.c). */
     pkss__assess_input ai = {&rs->v.sv, &rs->v.tv, &rs->v.svc, &rs->v.tvc, tgt->sigma,
                              tgt->centroid, rs->ir, out->cand, rs->n, best,

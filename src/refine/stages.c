@@ -550,6 +550,68 @@ pkss_status pkss__stage_reshift(pkss__refinement *rs, int w, size_t *added)
     return PKSS_OK;
 }
 
+/* ---- the scale sweep at the winner's rotation ---------------------------- */
+
+int pkss__rescale_steps(const pkss__refinement *rs, int w)
+{
+    const pkss__icp_result *r = &rs->ir[w];
+    if (!rs->refined[w] || fmax(r->cover[0], r->cover[1]) >= PKSS_PART_COVERED)
+        return 0;
+    const int n = (int)floor(fabs(log(r->pose.s)) / log(PKSS_RESCALE_STEP) + 0.5);
+    return n < PKSS_RESCALE_STEPS ? n : PKSS_RESCALE_STEPS;
+}
+
+/* Of held and the peaks of its shift search, the pose with the best merit
+ * on all points as it stands (one settle per scale, not one per peak). */
+static pkss_status best_unsettled(const pkss__refinement *rs, const pkss__pose *held,
+                                  pkss__pose *best)
+{
+    pkss__pose starts[PKSS_RESHIFT_PEAKS + 1];
+    size_t m = 0;
+    const pkss__shift_ask ask = {PKSS_RESHIFT_PEAKS, PKSS_RESHIFT_SHARE, PKSS_RESHIFT_PEAKS};
+    PKSS_FORWARD(pkss__shift_starts(&rs->v.svc, &rs->v.tv, held, &ask, starts, &m));
+    starts[m++] = *held;
+    double top = -1.0;
+    for (size_t j = 0; j < m; ++j) {
+        pkss__icp_result q;
+        PKSS_FORWARD(pkss__icp_overlap(&rs->v.sv, &rs->v.tv, &starts[j], &q.overlap, &q.rms,
+                                       &q.fit));
+        if (pkss__icp_merit(&q) > top) {
+            top = pkss__icp_merit(&q);
+            *best = starts[j];
+        }
+    }
+    return PKSS_OK;
+}
+
+pkss_status pkss__stage_rescale(pkss__refinement *rs, int w, size_t *added)
+{
+    *added = 0;
+    const int n = pkss__rescale_steps(rs, w);
+    if (n == 0 || rs->n >= PKSS_MAX_CANDIDATES)
+        return PKSS_OK;
+    double bar, top, merit; /* the winner's merit, settled as the sweep's are */
+    PKSS_FORWARD(settled_merit(rs, &rs->ir[w].pose, NULL, &bar));
+    top = bar;
+    /* toward the pre-shape ratio, where both clouds have unit RMS radius */
+    const double f = rs->ir[w].pose.s < 1.0 ? PKSS_RESCALE_STEP : 1.0 / PKSS_RESCALE_STEP;
+    pkss__pose held = rs->ir[w].pose, start, settled, best = held;
+    for (int k = 1; k <= n; ++k) {
+        held.s *= f; /* about the source's centroid, the pre-shape origin */
+        PKSS_FORWARD(best_unsettled(rs, &held, &start));
+        PKSS_FORWARD(settled_merit(rs, &start, &settled, &merit));
+        if (merit > top) {
+            top = merit;
+            best = settled;
+        }
+    }
+    if (top > bar) {
+        PKSS_FORWARD(run_shifted(rs, w, &best));
+        *added = 1;
+    }
+    return PKSS_OK;
+}
+
 pkss_status pkss__stage_slide(pkss__refinement *rs, int w)
 {
     if (!shows_part(rs, w))

@@ -123,6 +123,14 @@ int pkss__astray(const pkss__refinement *rs, int w);
  * are settled on all points, and its best, if its merit there beats the
  * winner's settled the same way, gets a full run (*added of them). */
 pkss_status pkss__stage_reshift(pkss__refinement *rs, int w, size_t *added);
+/* Steps of PKSS_RESCALE_STEP between winner w's scale and the pre-shape
+ * ratio, at most PKSS_RESCALE_STEPS; 0 unless both clouds are parts. */
+int pkss__rescale_steps(const pkss__refinement *rs, int w);
+/* The scale sweep at winner w's rotation: at each step toward the
+ * pre-shape ratio, the best of the held pose and its shift search's peaks
+ * by merit is settled on all points; the best settled, if it beats the
+ * winner's settled the same way, gets a full run (*added: 0 or 1). */
+pkss_status pkss__stage_rescale(pkss__refinement *rs, int w, size_t *added);
 /* The slide search on winner w when it does not cover both clouds. */
 pkss_status pkss__stage_slide(pkss__refinement *rs, int w);
 

@@ -454,7 +454,8 @@ void cli_verbose(const cli_run *run, const pkss_context *ctx,
             fprintf(stderr, "local match\n");
         else
             fprintf(stderr, "rot#%u %s#%u\n", (unsigned)c.rotation_index,
-                    c.search == 4   ? "reshift"
+                    c.search == 5   ? "rescale"
+                    : c.search == 4 ? "reshift"
                     : c.search == 2 ? "shift"
                     : c.search == 1 ? "wide"
                                     : "off",

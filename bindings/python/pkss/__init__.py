@@ -508,7 +508,8 @@ class Candidate(_Value):
     #: local-feature match where both clouds are parts (no grid indices:
     #: ``rotation_index`` and ``offset_index`` are 2**32 - 1; its scores are
     #: the paper's G at its start pose); 4: a shift of a candidate at another
-    #: rotation, where the winner lies astray (docs/design.md §5)
+    #: rotation, where the winner lies astray; 5: the winner at another scale
+    #: and translation, where both clouds are parts (docs/design.md §5)
     search: int
 
     def apply(self, points: ArrayLike) -> np.ndarray:
