@@ -60,9 +60,9 @@ def test_candidates_come_from_the_context():
     np.testing.assert_array_equal(win.transform, res.transform)
     assert win.fit == res.fit and win.score == res.score
     for c in res.candidates:
-        assert c.search in (0, 1, 2, 3, 4)
+        assert c.search in (0, 1, 2, 3, 4, 5)
         # a local match has no grid indices; a shift keeps its source's
-        no_grid = c.search == 3 or (c.search in (2, 4) and c.offset_index == 2**32 - 1)
+        no_grid = c.search == 3 or (c.search in (2, 4, 5) and c.offset_index == 2**32 - 1)
         assert no_grid or 0 <= c.offset_index < res.n_offsets
         assert c.stage in ("search", "coarse", "stopped", "refined")
     assert res.fell_back in (True, False) and isinstance(res.note, str)
