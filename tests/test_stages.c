@@ -261,8 +261,9 @@ static void test_placed_rule(void **state)
     free(rs);
 }
 
-/* The scale sweep runs where both clouds are parts, over the whole steps
- * between the winner's scale and the pre-shape ratio, either way. */
+/* The scale sweep runs where both clouds are parts, over the steps
+ * (rounded) between the winner's scale and the pre-shape ratio, either
+ * way. */
 static void test_rescale_steps(void **state)
 {
     (void)state;
