@@ -530,16 +530,24 @@ typedef struct bundled_run {
     pkss_context *ctx;
     pkss_result res;
     pkss_test_err e;
-    double d; /* the target's diameter */
+    double d;     /* the target's diameter */
+    double at[3]; /* where pose errors are taken, as register_and_score does */
 } bundled_run;
 
 static void run_bundled(const char *stem, const char *label, bundled_run *r)
 {
     r->p = load_bundled_pair(stem);
     r->d = pkss_test_diameter(r->p.tgt, r->p.nt);
+    pkss_test_centroid(r->p.src, r->p.ns, r->at);
     r->ctx = make_context();
     r->e = register_and_score(r->ctx, r->p.src, r->p.ns, r->p.tgt, r->p.nt, r->p.T, &r->res,
                               label);
+}
+
+/* Whether candidate k of the run lies within the strict bars. */
+static int candidate_strict(const bundled_run *r, const pkss_candidate *k)
+{
+    return is_strict(pkss_test_pose_error(k->T_target_source, r->p.T, r->at), r->d);
 }
 
 static void end_bundled_run(bundled_run *r)
@@ -652,14 +660,12 @@ static void test_partial_pair_slid_back_from_another_rotation(void **state)
     const pkss_candidate w = pkss_test_candidate(r.ctx, r.res.winner);
     int searched_right = 0; /* a candidate of the searches within the strict bars */
     double lead = -1.0, lead_fit = 0.0, lead_overlap = 0.0; /* theirs by merit */
-    double at[3]; /* where pose errors are taken, as register_and_score does */
-    pkss_test_centroid(r.p.src, r.p.ns, at);
     for (uint32_t c = 0; c < r.res.n_candidates; ++c) {
         const pkss_candidate k = pkss_test_candidate(r.ctx, c);
         const pkss__icp_result as_k = {.fit = k.fit, .overlap = k.overlap};
         if (k.search == 2 || k.search == 4) /* shifts */
             continue;
-        searched_right |= is_strict(pkss_test_pose_error(k.T_target_source, r.p.T, at), r.d);
+        searched_right |= candidate_strict(&r, &k);
         if (k.stage == PKSS_STAGE_REFINED && pkss__icp_merit(&as_k) > lead) {
             lead = pkss__icp_merit(&as_k);
             lead_fit = k.fit;
@@ -692,13 +698,10 @@ static void test_partial_pair_grown_back_by_the_scale_sweep(void **state)
     run_bundled("milk_shrunk", "milk shrunk", &r);
     const pkss_candidate w = pkss_test_candidate(r.ctx, r.res.winner);
     int earlier_right = 0; /* a candidate before the sweep within the strict bars */
-    double at[3];
-    pkss_test_centroid(r.p.src, r.p.ns, at);
     for (uint32_t c = 0; c < r.res.n_candidates; ++c) {
         const pkss_candidate k = pkss_test_candidate(r.ctx, c);
-        const pkss_test_err e = pkss_test_pose_error(k.T_target_source, r.p.T, at);
         if (k.search != 5)
-            earlier_right |= is_strict(e, r.d);
+            earlier_right |= candidate_strict(&r, &k);
     }
     printf("  shrunk milk carton: rot %.3f deg, scale %.3f %%, trans %.3f %% of the target's "
            "diameter; winner from search %u, overlap %.4f; any earlier candidate right: %d\n",
