@@ -187,12 +187,14 @@
  * winner with less than 0.6 of its overlap within the fit distance is held
  * near the template, not on it (docs/tuning.md: set on pairs that share
  * their points); the 5 best-merit candidates at other rotations each vote,
- * and their 12 best peaks above half the held votes are settled on all
- * points, whose fit ranks them where coverage and coarse views cannot */
+ * and of their 12 best peaks above half the held votes the 2 best by merit
+ * on all points as they stand are settled there, whose fit ranks them where
+ * coverage and coarse views cannot (one alone lost a pair) */
 #define PKSS_ASTRAY 0.6
 #define PKSS_RESHIFT_SOURCES 5
 #define PKSS_RESHIFT_PEAKS 12
 #define PKSS_RESHIFT_SHARE 0.5
+#define PKSS_RESHIFT_SETTLED 2
 /* the scale sweep at the winner's rotation (stages.c:pkss__stage_rescale):
  * where both clouds are parts, the overlap-driven scale stages can draw one
  * into the other's outline; the scales from the winner's toward the

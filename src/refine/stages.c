@@ -500,6 +500,25 @@ static int next_source(const pkss__refinement *rs, size_t n, const int *done, in
     return best;
 }
 
+/* order[0..m): the starts by their merit on all points as they stand, best
+ * first (ties by index): a settle costs about ten of these. */
+static pkss_status rank_unsettled(const pkss__refinement *rs, const pkss__pose *starts,
+                                  size_t m, size_t *order)
+{
+    double merit[PKSS_RESHIFT_PEAKS + 1];
+    for (size_t j = 0; j < m; ++j) {
+        pkss__icp_result q;
+        PKSS_FORWARD(pkss__icp_overlap(&rs->v.sv, &rs->v.tv, &starts[j], &q.overlap, &q.rms,
+                                       &q.fit));
+        merit[j] = pkss__icp_merit(&q);
+        size_t i = j;
+        for (; i > 0 && merit[order[i - 1]] < merit[j]; --i)
+            order[i] = order[i - 1];
+        order[i] = j;
+    }
+    return PKSS_OK;
+}
+
 /* The merit of a short rigid settle from pose on all points (the coarse
  * views' fit distance is twice as wide and cannot tell a slid part from
  * its truth); the settled pose in *settled unless it is NULL. */
@@ -529,14 +548,15 @@ pkss_status pkss__stage_reshift(pkss__refinement *rs, int w, size_t *added)
             break;
         done[k] = c;
         pkss__pose starts[PKSS_RESHIFT_PEAKS], best = {0}, settled;
-        size_t m = 0;
+        size_t m = 0, order[PKSS_RESHIFT_PEAKS];
         const pkss__shift_ask ask = {PKSS_RESHIFT_PEAKS, PKSS_RESHIFT_SHARE, PKSS_RESHIFT_PEAKS};
         PKSS_FORWARD(pkss__shift_starts(&rs->v.svc, &rs->v.tv, &rs->ir[c].pose, &ask, starts, &m));
+        PKSS_FORWARD(rank_unsettled(rs, starts, m, order));
         /* only a start that, settled, already lies on the template more
          * closely than the winner gets a full run: the best of them */
         double top = bar, merit;
-        for (size_t j = 0; j < m; ++j) {
-            PKSS_FORWARD(settled_merit(rs, &starts[j], &settled, &merit));
+        for (size_t j = 0; j < m && j < PKSS_RESHIFT_SETTLED; ++j) {
+            PKSS_FORWARD(settled_merit(rs, &starts[order[j]], &settled, &merit));
             if (merit > top) {
                 top = merit;
                 best = settled;
@@ -567,20 +587,12 @@ static pkss_status best_unsettled(const pkss__refinement *rs, const pkss__pose *
                                   pkss__pose *best)
 {
     pkss__pose starts[PKSS_RESHIFT_PEAKS + 1];
-    size_t m = 0;
+    size_t m = 0, order[PKSS_RESHIFT_PEAKS + 1];
     const pkss__shift_ask ask = {PKSS_RESHIFT_PEAKS, PKSS_RESHIFT_SHARE, PKSS_RESHIFT_PEAKS};
     PKSS_FORWARD(pkss__shift_starts(&rs->v.svc, &rs->v.tv, held, &ask, starts, &m));
     starts[m++] = *held;
-    double top = -1.0;
-    for (size_t j = 0; j < m; ++j) {
-        pkss__icp_result q;
-        PKSS_FORWARD(pkss__icp_overlap(&rs->v.sv, &rs->v.tv, &starts[j], &q.overlap, &q.rms,
-                                       &q.fit));
-        if (pkss__icp_merit(&q) > top) {
-            top = pkss__icp_merit(&q);
-            *best = starts[j];
-        }
-    }
+    PKSS_FORWARD(rank_unsettled(rs, starts, m, order));
+    *best = starts[order[0]];
     return PKSS_OK;
 }
 

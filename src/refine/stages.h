@@ -119,9 +119,10 @@ pkss_status pkss__stage_shift(pkss__refinement *rs, int w, size_t *added);
 int pkss__astray(const pkss__refinement *rs, int w);
 /* The shift search from other rotations where winner w lies astray: the
  * candidates scored on all points at up to PKSS_RESHIFT_SOURCES other
- * rotations (best merit first) each vote (shift_search.c); each one's peaks
- * are settled on all points, and its best, if its merit there beats the
- * winner's settled the same way, gets a full run (*added of them). */
+ * rotations (best merit first) each vote (shift_search.c); each one's
+ * PKSS_RESHIFT_SETTLED best peaks by merit are settled on all points, and
+ * the best settled, if its merit there beats the winner's settled the same
+ * way, gets a full run (*added of them). */
 pkss_status pkss__stage_reshift(pkss__refinement *rs, int w, size_t *added);
 /* Steps of PKSS_RESCALE_STEP between winner w's scale and the pre-shape
  * ratio, at most PKSS_RESCALE_STEPS; 0 unless both clouds are parts. */
