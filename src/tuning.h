@@ -189,7 +189,8 @@
  * their points); the 5 best-merit candidates at other rotations each vote,
  * and of their 12 best peaks above half the held votes the 2 best by merit
  * on all points as they stand are settled there, whose fit ranks them where
- * coverage and coarse views cannot (one alone lost a pair) */
+ * coverage and coarse views cannot (2: the winning peak is not always the
+ * best unsettled one) */
 #define PKSS_ASTRAY 0.6
 #define PKSS_RESHIFT_SOURCES 5
 #define PKSS_RESHIFT_PEAKS 12
