@@ -550,6 +550,19 @@ static int candidate_strict(const bundled_run *r, const pkss_candidate *k)
     return is_strict(pkss_test_pose_error(k->T_target_source, r->p.T, r->at), r->d);
 }
 
+/* Whether a candidate of r's result whose origin is not in skip (a bit per
+ * pkss_candidate.search) lies within the strict bars. */
+static int any_candidate_strict(const bundled_run *r, unsigned skip)
+{
+    int right = 0;
+    for (uint32_t c = 0; c < r->res.n_candidates; ++c) {
+        const pkss_candidate k = pkss_test_candidate(r->ctx, c);
+        if (!(skip & 1u << k.search))
+            right |= candidate_strict(r, &k);
+    }
+    return right;
+}
+
 static void end_bundled_run(bundled_run *r)
 {
     pkss_context_destroy(r->ctx);
@@ -658,14 +671,15 @@ static void test_partial_pair_slid_back_from_another_rotation(void **state)
     bundled_run r;
     run_bundled("car6_slid", "car slid", &r);
     const pkss_candidate w = pkss_test_candidate(r.ctx, r.res.winner);
-    int searched_right = 0; /* a candidate of the searches within the strict bars */
+    const unsigned shifts = 1u << 2 | 1u << 4;
+    /* a candidate of the searches within the strict bars */
+    const int searched_right = any_candidate_strict(&r, shifts);
     double lead = -1.0, lead_fit = 0.0, lead_overlap = 0.0; /* theirs by merit */
     for (uint32_t c = 0; c < r.res.n_candidates; ++c) {
         const pkss_candidate k = pkss_test_candidate(r.ctx, c);
         const pkss__icp_result as_k = {.fit = k.fit, .overlap = k.overlap};
-        if (k.search == 2 || k.search == 4) /* shifts */
+        if (shifts & 1u << k.search)
             continue;
-        searched_right |= candidate_strict(&r, &k);
         if (k.stage == PKSS_STAGE_REFINED && pkss__icp_merit(&as_k) > lead) {
             lead = pkss__icp_merit(&as_k);
             lead_fit = k.fit;
@@ -697,12 +711,8 @@ static void test_partial_pair_grown_back_by_the_scale_sweep(void **state)
     bundled_run r;
     run_bundled("milk_shrunk", "milk shrunk", &r);
     const pkss_candidate w = pkss_test_candidate(r.ctx, r.res.winner);
-    int earlier_right = 0; /* a candidate before the sweep within the strict bars */
-    for (uint32_t c = 0; c < r.res.n_candidates; ++c) {
-        const pkss_candidate k = pkss_test_candidate(r.ctx, c);
-        if (k.search != 5)
-            earlier_right |= candidate_strict(&r, &k);
-    }
+    /* a candidate before the sweep within the strict bars */
+    const int earlier_right = any_candidate_strict(&r, 1u << 5);
     printf("  shrunk milk carton: rot %.3f deg, scale %.3f %%, trans %.3f %% of the target's "
            "diameter; winner from search %u, overlap %.4f; any earlier candidate right: %d\n",
            r.e.rot_deg, 100 * r.e.scale_rel, 100 * r.e.trans / r.d, w.search, r.res.overlap,
