@@ -50,7 +50,7 @@ typedef struct pkss__icp_schedule {
 } pkss__icp_schedule;
 
 extern const pkss__icp_schedule pkss__schedule_coarse, pkss__schedule_full,
-    pkss__schedule_settle, pkss__schedule_polish;
+    pkss__schedule_settle, pkss__schedule_settle_fine, pkss__schedule_polish;
 
 /* Minima reached by runs (the end of each rigid stage and each final
  * pose), with the id of the run that found each, the scale bar that run
@@ -131,10 +131,12 @@ pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
                           const pkss__pose *init, pkss__icp_result *out);
 /* The scale that maximises the overlap score, by a pattern search in log
  * scale (steps of log_step, at most PKSS_SCALE_MOVES moves) with a short
- * rigid settle at each trial; io holds the start pose on entry and the best
- * pose found (with its overlap, RMS and coverages) on exit. */
+ * rigid settle (schedule settle) at each trial; io holds the start pose on
+ * entry and the best pose found (with its overlap, RMS and coverages) on
+ * exit. */
 pkss_status pkss__icp_scale_search(const pkss__icp_view *src,
                                    const pkss__icp_view *tgt, double log_step,
+                                   const pkss__icp_schedule *settle,
                                    pkss__icp_result *io);
 /* A search along the direction in which the template's surface under the
  * source constrains the translation least (a part of a box or a cylinder

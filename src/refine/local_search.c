@@ -45,6 +45,7 @@ static void covered_centroid(const pkss__icp_view *src, const pkss__icp_work *w,
 
 pkss_status pkss__icp_scale_search(const pkss__icp_view *src,
                                    const pkss__icp_view *tgt, double log_step,
+                                   const pkss__icp_schedule *settle,
                                    pkss__icp_result *io)
 {
     pkss__icp_work w;
@@ -72,7 +73,7 @@ pkss_status pkss__icp_scale_search(const pkss__icp_view *src,
             pkss__pose trial = best.pose;
             rescale_about(&trial, c, sgn > 0 ? f : 1.0 / f);
             pkss__icp_result r;
-            st = pkss__icp_run(src, tgt, &pkss__schedule_settle, NULL, &trial, &r);
+            st = pkss__icp_run(src, tgt, settle, NULL, &trial, &r);
             if (st != PKSS_OK)
                 goto out;
             if (r.overlap > next.overlap) {

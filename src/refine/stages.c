@@ -336,9 +336,11 @@ static pkss_status plan_scale(const pkss__views *v, pkss__icp_result *io,
     *mode = pkss__part_mode(fs, ft, pkss__schedule_full.free_scale);
     if (!(fabs(fs - ft) > PKSS_PART_OF_WHOLE || fmax(fs, ft) < PKSS_PART_COVERED))
         return PKSS_OK;
-    PKSS_FORWARD(pkss__icp_scale_search(&v->svc, &v->tvc, PKSS_SCALE_STEP_COARSE, io));
+    PKSS_FORWARD(pkss__icp_scale_search(&v->svc, &v->tvc, PKSS_SCALE_STEP_COARSE,
+                                        &pkss__schedule_settle, io));
     if (pkss__part_mode(io->cover[0], io->cover[1], 0) != 0)
-        PKSS_FORWARD(pkss__icp_scale_search(&v->sv, &v->tv, PKSS_SCALE_STEP_FINE, io));
+        PKSS_FORWARD(pkss__icp_scale_search(&v->sv, &v->tv, PKSS_SCALE_STEP_FINE,
+                                            &pkss__schedule_settle_fine, io));
     *mode = pkss__part_mode(io->cover[0], io->cover[1], *mode);
     return PKSS_OK;
 }
