@@ -130,10 +130,9 @@ pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
                           const pkss__icp_stops *stops,
                           const pkss__pose *init, pkss__icp_result *out);
 /* The scale that maximises the overlap score, by a pattern search in log
- * scale (steps of log_step, at most PKSS_SCALE_MOVES moves) with a short
- * rigid settle (schedule settle) at each trial; io holds the start pose on
- * entry and the best pose found (with its overlap, RMS and coverages) on
- * exit. */
+ * scale (steps of log_step, at most PKSS_SCALE_MOVES moves), each trial
+ * settled by the rigid schedule settle; io holds the start pose on entry
+ * and the best pose found (with its overlap, RMS and coverages) on exit. */
 pkss_status pkss__icp_scale_search(const pkss__icp_view *src,
                                    const pkss__icp_view *tgt, double log_step,
                                    const pkss__icp_schedule *settle,
