@@ -349,11 +349,13 @@
 #define PKSS_SCHEDULE_FULL {.gate_start = 6.0, .rigid_iters = 60, .max_iters = 200, \
                             .free_scale = PKSS__SCALE_MUTUAL, .plane_iters = 30}
 /* the rigid settle after each trial scale of a scale search: 5h to the floor */
-#define PKSS_SCHEDULE_SETTLE {.gate_start = 5.0, .rigid_iters = 10, .max_iters = 10}
+#define PKSS_SETTLE_GATE 5.0
+#define PKSS_SCHEDULE_SETTLE {.gate_start = PKSS_SETTLE_GATE, .rigid_iters = 10, .max_iters = 10}
 /* the same on all points after a 3 % step, which moves points a third as far
  * as the coarse views' 10 %: to the floor and 2 steps there, enough to rank
  * the trials (the full run converges the best) */
-#define PKSS_SCHEDULE_SETTLE_FINE {.gate_start = 5.0, .rigid_iters = 6, .max_iters = 6}
+#define PKSS_SCHEDULE_SETTLE_FINE {.gate_start = PKSS_SETTLE_GATE, .rigid_iters = 6, \
+                                   .max_iters = 6}
 /* the rigid polish of a near tie before it is judged (refine/assess.c):
  * a turned pose settled on all points, as the winner was */
 #define PKSS_SCHEDULE_TIE_POLISH {.gate_start = 4.0, .rigid_iters = 12, .max_iters = 12}
