@@ -187,3 +187,27 @@ def test_a_library_asked_for_but_not_loaded_is_refused(tmp_path):
     methods.check_library(str(a), str(tmp_path / "." / "a.so"))  # the same file
     with pytest.raises(ImportError, match="asked for"):
         methods.check_library(str(a), str(b))
+
+
+@needs_data
+def test_truth_probe_holds_an_exact_pair():
+    # at an exact similarity copy both textbook ICPs stay at the truth
+    import truth_probe as P
+    case = C.make_synthetic("chef", "similarity", 0, 0)
+    for mode, gate, rre, rte, scale_err, ok in P.probe(case.source, case.target, case.T_gt, [1.5]):
+        assert ok and rre < 0.05 and rte < 0.05 and scale_err < 0.05, mode
+
+
+@needs_data
+def test_truth_probe_similarity_icp_mends_a_scale_offset():
+    # started 1.5 % large, the similarity ICP returns to the truth's scale
+    import truth_probe as P
+    case = C.make_synthetic("chef", "similarity", 0, 0)
+    tree = cKDTree(case.target)
+    T0 = case.T_gt.copy()
+    T0[:3, :3] *= 1.015
+    h = P.spacing(case.target)
+    T = P.settle(T0, case.source, case.target, tree, P.normals(case.target, tree), 3 * h,
+                 "similarity")
+    assert P.errors(T0, case.T_gt, case.source, C.diameter(case.target))[2] > 1.4
+    assert P.errors(T, case.T_gt, case.source, C.diameter(case.target))[2] < 0.05
