@@ -354,6 +354,14 @@ struct pkss_cloud {
     size_t m_coarse;
     pkss__kdtree *tree_coarse;
     double spacing_coarse;
+    /* The points culling kept, before resampling (at most PKSS_CULL_SUBSET
+     * m), in the same pre-shape coordinates, with their tree, normals and
+     * spacing: the dense view of the winner's last steps (refine/fine.c). */
+    size_t m_dense;
+    double *dense;
+    double *normal_dense;
+    pkss__kdtree *tree_dense;
+    double spacing_dense;
     double prep_seconds;
     double validate_seconds;
     /* the parameters it was prepared under (cloud_bytes.c checks them) */

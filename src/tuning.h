@@ -311,6 +311,17 @@
 /* relative damping of the point-to-plane normal equations: a free
  * direction (a plane's sliding) stays where it is */
 #define ICP_PLANE_DAMPING 1e-6
+/* the winner's last point-to-plane steps (refine/fine.c) pair its points
+ * with the template's culled points (not resampled) within this many of
+ * their spacings: wider pairs reach past the edge of a partial overlap and
+ * pull the scale (docs/tuning.md) ... */
+#define PKSS_FINE_GATE 1.5
+/* ... or within this many sigmas of the contact's noise (1.4826 x the
+ * median point-to-plane distance of the pairs within the ICP's floor gate),
+ * if wider: a gate inside the noise cuts its tails unevenly ... */
+#define PKSS_FINE_NOISE_SIGMAS 2.0
+/* ... for at most this many steps (most settle in under 10) */
+#define PKSS_FINE_ITERS 30
 /* relative slack of a remembered nearest neighbour's test, far above the
  * rounding of the distances it compares */
 #define ICP_MEMO_SLACK 1e-9

@@ -251,8 +251,8 @@ static void test_bad_bytes(void **state)
 
     /* stale: format, library version, each kind of parameter */
     memcpy(b, good, size);
-    put_le(b, 8, 2, 4);
-    expect(ctx, b, size, PKSS_ERR_STALE_DATA, "format version 2");
+    put_le(b, 8, 1, 4);
+    expect(ctx, b, size, PKSS_ERR_STALE_DATA, "format version 1");
     memcpy(b, good, size);
     put_le(b, 16, PKSS_VERSION_NUMBER + 1, 4);
     reseal(b, size);

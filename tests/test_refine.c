@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: MIT
  * test_refine.c -- the refinement (SPEC 6, icp.c) of parts of real scans:
- * the slide search that ends it, from a pose slid along a box, a scale
+ * the slide search that ends it, from a pose slid along a box, the last
+ * steps on the dense points that mend a part's scale, a scale
  * stage held to a bar that must not stop while its scale still moves, a
  * run that lies closer than the leader's fit and must not stop at all, the
  * shift search that moves a part of a corridor onto its own walls, and the
@@ -137,6 +138,43 @@ static void test_slide_search_returns_box_part(void **state)
     pkss__icp_result kept = at_truth;
     assert_int_equal(pkss__icp_slide_search(&f.sv, &f.tv, 0.003, &kept), PKSS_OK);
     assert_memory_equal(&kept.pose, &at_truth.pose, sizeof kept.pose);
+    part_teardown(&f);
+}
+
+/* The milk carton part of the slide test, from the truth made 3 % small.
+ * The polish that ends a run pairs within 3 resampled spacings, past the
+ * rims of the part's faces; the last steps on the dense points
+ * (fine.c) pair within 1.5 of the culled points' own spacings (or 2 sigma
+ * of the noise) and come back to the truth's scale. */
+static void test_fine_steps_mend_a_partial_overlaps_scale(void **state)
+{
+    (void)state;
+    part_fixture f;
+    part_setup(&f, MILK, 1, 0.43, 0.5 * 0.00147);
+    pkss__pose start = f.truth;
+    start.s *= 0.97;
+    pkss__icp_result polished, fine;
+    assert_int_equal(pkss__icp_run(&f.sv, &f.tv, &pkss__schedule_polish, NULL, &start,
+                                   &polished), PKSS_OK);
+    fine = polished;
+    pkss__icp_view sd, td;
+    pkss__icp_view_dense(f.src, f.src->m, &sd);
+    pkss__icp_view_dense(f.tgt, f.tgt->m_dense, &td);
+    assert_true(sd.m == f.src->m && td.m > f.tgt->m); /* a sample; all of them */
+    assert_int_equal(pkss__icp_fine(&f.sv, &f.tv, &sd, &td, &fine), PKSS_OK);
+    const double h = f.tgt->spacing;
+    double polished_err = fabs(polished.pose.s / f.truth.s - 1.0);
+    double fine_err = fabs(fine.pose.s / f.truth.s - 1.0);
+    double off = distance3(fine.pose.t, f.truth.t) / h;
+    double rot_deg = pkss__rotation_angle(fine.pose.R, f.truth.R) * 180.0 /
+                     3.14159265358979323846;
+    printf("  scale error: polished %.2f %%, then the last steps %.2f %% (%.2f h off, "
+           "%.2f deg, fit %.3f -> %.3f)\n",
+           100 * polished_err, 100 * fine_err, off, rot_deg, polished.fit, fine.fit);
+    assert_true(fine_err < 0.005);
+    assert_true(fine_err < polished_err);
+    assert_true(off < 1.0);
+    assert_true(rot_deg < 0.5);
     part_teardown(&f);
 }
 
@@ -397,6 +435,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_slide_search_returns_box_part),
+        cmocka_unit_test(test_fine_steps_mend_a_partial_overlaps_scale),
         cmocka_unit_test(test_scale_stage_runs_while_scale_moves),
         cmocka_unit_test(test_merit_bar_keeps_a_closer_run),
         cmocka_unit_test(test_shift_search_finds_the_right_walls),

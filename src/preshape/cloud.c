@@ -22,6 +22,9 @@ void pkss_cloud_destroy(pkss_cloud *cloud)
     pkss__free(cloud->normal);
     pkss__kdtree_free(cloud->tree);
     pkss__kdtree_free(cloud->tree_coarse);
+    pkss__free(cloud->dense);
+    pkss__free(cloud->normal_dense);
+    pkss__kdtree_free(cloud->tree_dense);
     pkss__free(cloud);
 }
 
@@ -259,6 +262,50 @@ static void top_by_value(const double *d, size_t m, size_t nf, double *scratch,
     }
 }
 
+/* The least-squares plane of each point's k neighbours (idx, m x k, self
+ * excluded): its unit normal and the point's distance to it (ds, or NULL). */
+static pkss_status neighbour_planes(const double *pts, size_t m, const uint32_t *idx,
+                                    size_t k, double *normal, double *ds, pkss__run *run)
+{
+    for (size_t i = 0; i < m; ++i) {
+        if (i % 1024 == 0 && pkss__tick(run) != PKSS_OK)
+            return PKSS_ERR_CANCELLED;
+        double nb[3 * PKSS_KNN_K];
+        for (size_t j = 0; j < k; ++j)
+            memcpy(nb + 3 * j, pts + 3 * idx[k * i + j], 3 * sizeof(double));
+        double w[3], V[9], mean[3];
+        covariance(nb, k, mean, w, V);
+        const double *p = pts + 3 * i;
+        /* normal = eigenvector of the smallest eigenvalue (column 2) */
+        if (ds)
+            ds[i] = fabs((p[0] - mean[0]) * V[2] + (p[1] - mean[1]) * V[5] +
+                         (p[2] - mean[2]) * V[8]);
+        for (int d = 0; d < 3; ++d)
+            normal[3 * i + d] = V[3 * d + 2];
+    }
+    return PKSS_OK;
+}
+
+/* The PKSS_KNN_K nearest neighbours of each of the m points the tree was
+ * built from, their planes (neighbour_planes) and each point's
+ * nearest-neighbour distance (nn). */
+static pkss_status local_planes(const pkss__kdtree *tree, const double *pts, size_t m,
+                                double *normal, double *ds, double *nn, pkss__run *run)
+{
+    size_t k = m - 1 < PKSS_KNN_K ? m - 1 : PKSS_KNN_K;
+    uint32_t *idx = pkss__malloc(m * k * sizeof(uint32_t));
+    double *d2 = pkss__malloc(m * k * sizeof(double));
+    pkss_status st = idx && d2 ? pkss__knn_all(tree, pts, m, k, idx, d2)
+                               : PKSS_ERR_OUT_OF_MEMORY;
+    for (size_t i = 0; st == PKSS_OK && i < m; ++i)
+        nn[i] = sqrt(d2[k * i]);
+    if (st == PKSS_OK)
+        st = neighbour_planes(pts, m, idx, k, normal, ds, run);
+    pkss__free(idx);
+    pkss__free(d2);
+    return st;
+}
+
 /* Sec. 4: D_pca(p) = distance of p to the least-squares plane of its 12
  * nearest neighbours (self excluded); P' = the top feature_frac by D_pca.
  * Also keeps that plane's normal at every point (the refinement's
@@ -266,35 +313,16 @@ static void top_by_value(const double *d, size_t m, size_t nf, double *scratch,
 static pkss_status features_and_spacing(pkss_cloud *c, double frac,
                                         pkss__run *run)
 {
-    size_t m = c->m, k = m - 1 < PKSS_KNN_K ? m - 1 : PKSS_KNN_K;
-    uint32_t *idx = pkss__malloc(m * k * sizeof(uint32_t));
-    double *d2 = pkss__malloc(m * k * sizeof(double));
+    size_t m = c->m;
     double *ds = pkss__malloc(m * sizeof(double));
     double *nn = pkss__malloc(m * sizeof(double));
     c->normal = pkss__malloc(3 * m * sizeof(double));
-    if (!idx || !d2 || !ds || !nn || !c->normal) {
-        pkss__free(idx); pkss__free(d2); pkss__free(ds); pkss__free(nn);
-        return PKSS_ERR_OUT_OF_MEMORY;
-    }
-    pkss__knn_all(c->tree, c->pre, m, k, idx, d2);
-    for (size_t i = 0; i < m; ++i) {
-        if (i % 1024 == 0 && pkss__tick(run) != PKSS_OK) {
-            pkss__free(idx); pkss__free(d2); pkss__free(ds); pkss__free(nn);
-            return PKSS_ERR_CANCELLED;
-        }
-        nn[i] = sqrt(d2[k * i]);
-        double nb[3 * PKSS_KNN_K];
-        for (size_t j = 0; j < k; ++j)
-            memcpy(nb + 3 * j, c->pre + 3 * idx[k * i + j], 3 * sizeof(double));
-        double w[3], V[9], mean[3];
-        covariance(nb, k, mean, w, V);
-        const double *p = c->pre + 3 * i;
-        /* normal = eigenvector of the smallest eigenvalue (column 2) */
-        double dist = (p[0] - mean[0]) * V[2] + (p[1] - mean[1]) * V[5] +
-                      (p[2] - mean[2]) * V[8];
-        ds[i] = fabs(dist);
-        for (int d = 0; d < 3; ++d)
-            c->normal[3 * i + d] = V[3 * d + 2];
+    pkss_status st = ds && nn && c->normal
+                         ? local_planes(c->tree, c->pre, m, c->normal, ds, nn, run)
+                         : PKSS_ERR_OUT_OF_MEMORY;
+    if (st != PKSS_OK) {
+        pkss__free(ds); pkss__free(nn);
+        return st;
     }
     c->spacing = pkss__select_value(nn, m, m / 2);
     size_t nf = (size_t)ceil(frac * (double)m);
@@ -304,13 +332,13 @@ static pkss_status features_and_spacing(pkss_cloud *c, double frac,
     if (nf > m) nf = m;
     c->feat = pkss__malloc(nf * sizeof(uint32_t));
     if (!c->feat) {
-        pkss__free(idx); pkss__free(d2); pkss__free(ds); pkss__free(nn);
+        pkss__free(ds); pkss__free(nn);
         return PKSS_ERR_OUT_OF_MEMORY;
     }
     /* in point index order: deterministic and cache friendly */
     top_by_value(ds, m, nf, nn, c->feat);
     c->n_feat = nf;
-    pkss__free(idx); pkss__free(d2); pkss__free(ds); pkss__free(nn);
+    pkss__free(ds); pkss__free(nn);
     return PKSS_OK;
 }
 
@@ -382,6 +410,7 @@ typedef struct prep {
     size_t np;
     unsigned char *keep;
     uint32_t *sel;
+    pkss__knn_graph graph; /* culling's kNN graph of the kept points, if any */
 } prep;
 
 /* Each stage returns PKSS_OK, PKSS_ERR_OUT_OF_MEMORY (reported by the
@@ -484,10 +513,15 @@ static pkss_status cull_outliers(prep *w)
     w->c->counts.after_mutual = w->np;
     if (p->cull_stat && w->np > PKSS_KNN_K + 1) {
         st = pkss__cull_stat(w->pts, w->np, w->keep, &graph);
+        size_t before = w->np;
         if (st == PKSS_OK)
             w->np = compact(w->pts, w->np, w->keep);
+        if (st == PKSS_OK && w->np != before)
+            st = pkss__knn_graph_compact(&graph, w->keep, w->pts, w->np);
     }
-    pkss__knn_graph_free(&graph);
+    if (st != PKSS_OK)
+        pkss__knn_graph_free(&graph);
+    w->graph = graph; /* the dense view's planes (dense_view) */
     PKSS_FORWARD(st);
     w->c->counts.after_stat = w->np;
     PKSS_RETURN_IF(w->np < (size_t)p->min_points, w->ctx, PKSS_ERR_TOO_FEW_POINTS,
@@ -556,6 +590,62 @@ static pkss_status features(prep *w)
     return st;
 }
 
+#define DENSE_ORDER_STREAM 0xde45e0dde4ULL
+
+/* The planes and nearest distances of the points culling kept, from its kNN
+ * graph where it has one for them (their neighbours), else queried. */
+static pkss_status kept_planes(prep *w, double *normal, double *nn)
+{
+    const pkss__knn_graph *g = &w->graph;
+    if (!g->idx || g->n != w->np || g->k != PKSS_KNN_K) {
+        pkss__kdtree *tree = NULL;
+        pkss_status st = pkss__kdtree_build(w->pts, w->np, &tree);
+        if (st == PKSS_OK)
+            st = local_planes(tree, w->pts, w->np, normal, NULL, nn, w->ctx->run);
+        pkss__kdtree_free(tree);
+        return st;
+    }
+    for (size_t i = 0; i < w->np; ++i)
+        nn[i] = sqrt(g->d2[g->k * i]);
+    return neighbour_planes(w->pts, w->np, g->idx, g->k, normal, NULL, w->ctx->run);
+}
+
+/* The dense view: the points culling kept, mapped as the resampled ones
+ * were (Eq. 2, the resampled points' mean and sigma), in a seeded random
+ * order (every prefix is a uniform sample: unlike FPS, which favours points
+ * that noise pushed outward), with their planes, tree and median spacing. */
+static pkss_status dense_view(prep *w)
+{
+    pkss_cloud *c = w->c;
+    const size_t n = w->np;
+    c->dense = pkss__malloc(3 * n * sizeof(double));
+    c->normal_dense = pkss__malloc(3 * n * sizeof(double));
+    double *nn = pkss__malloc(n * sizeof(double));
+    pkss_status st = c->dense && c->normal_dense && nn ? kept_planes(w, c->normal_dense, nn)
+                                                       : PKSS_ERR_OUT_OF_MEMORY;
+    if (st == PKSS_OK) {
+        c->spacing_dense = pkss__select_value(nn, n, n / 2) / c->sigma;
+        for (size_t i = 0; i < n; ++i)
+            for (int d = 0; d < 3; ++d)
+                c->dense[3 * i + d] = (w->pts[3 * i + d] - c->centroid[d]) / c->sigma;
+        uint64_t rng = (uint64_t)w->p->seed ^ DENSE_ORDER_STREAM;
+        for (size_t i = n; i > 1; --i) { /* Fisher-Yates, points and normals */
+            size_t j = (size_t)(pkss__splitmix64(&rng) % i);
+            double *arr[2] = {c->dense, c->normal_dense};
+            for (int a = 0; a < 2; ++a) {
+                double t[3];
+                memcpy(t, arr[a] + 3 * (i - 1), sizeof t);
+                memcpy(arr[a] + 3 * (i - 1), arr[a] + 3 * j, sizeof t);
+                memcpy(arr[a] + 3 * j, t, sizeof t);
+            }
+        }
+        c->m_dense = n;
+        st = pkss__kdtree_build(c->dense, n, &c->tree_dense);
+    }
+    pkss__free(nn);
+    return st == PKSS_ERR_CANCELLED ? pkss__cancel_fail(w->ctx) : st;
+}
+
 /* The coarse view and the PCA frame (Eq. 11). */
 static pkss_status coarse_and_frame(prep *w)
 {
@@ -571,7 +661,8 @@ static const struct {
 } PREP_STAGES[] = {
     {0, thin_in_place}, {0, drop_duplicates}, {1, thin_copy},
     {1, subset_for_culling}, {2, cull_outliers}, {3, resample}, {3, map_to_preshape},
-    {4, build_tree},    {5, features},        {5, coarse_and_frame},
+    {4, build_tree},    {5, features},        {5, dense_view},
+    {5, coarse_and_frame},
 };
 
 static pkss_status run_stages(prep *w)
@@ -600,7 +691,7 @@ pkss_status pkss__cloud_build(pkss_context *ctx, const double *xyz, size_t n,
     *out = NULL;
     double t0 = pkss__now();
     prep w = {ctx, &ctx->params, which, pkss__calloc(1, sizeof(pkss_cloud)),
-              NULL, NULL, 0, NULL, NULL};
+              NULL, NULL, 0, NULL, NULL, {0, 0, NULL, NULL}};
     PKSS_RETURN_IF(!w.c, ctx, PKSS_ERR_OUT_OF_MEMORY, "out of memory");
     w.c->counts.input = n;
     w.c->prep = ctx->params; /* what the cloud was prepared under (cloud_bytes.c) */
@@ -614,6 +705,7 @@ pkss_status pkss__cloud_build(pkss_context *ctx, const double *xyz, size_t n,
     pkss__free(w.pts);
     pkss__free(w.keep);
     pkss__free(w.sel);
+    pkss__knn_graph_free(&w.graph);
     if (st != PKSS_OK) {
         pkss_cloud_destroy(w.c);
         return st;

@@ -8,9 +8,10 @@
  *   32  FNV-1a 64 of every other byte (0..31, then 40..end)
  *   40  preparation parameters (56 bytes)
  *   96  payload: counts, sizes, frame and spacing scalars, then the arrays
- *       pre (3m f64), normal (3m f64) and feat (n_feat u32).
- * The kd-trees are rebuilt from pre on load: pkss__kdtree_build is a pure
- * function of its points, so the restored trees answer every query alike.
+ *       pre (3m f64), normal (3m f64), dense (3 m_dense f64), normal_dense
+ *       (3 m_dense f64) and feat (n_feat u32).
+ * The kd-trees are rebuilt from pre and dense on load: pkss__kdtree_build is
+ * a pure function of its points, so the restored trees answer alike.
  */
 #include "pkss_internal.h"
 
@@ -19,12 +20,12 @@
 #include <string.h>
 
 #define CB_MAGIC "PKSSCLD"
-#define CB_FORMAT 1u
+#define CB_FORMAT 2u
 #define CB_LITTLE_ENDIAN 1u
 #define CB_PARAMS_SIZE 56u
 #define CB_HEADER_SIZE (40u + CB_PARAMS_SIZE)
-#define CB_SCALARS (3 + 1 + 9 + 3 + 1 + 1 + 2) /* centroid .. validate_seconds */
-#define CB_PAYLOAD_FIXED (8 * 8 + 3 * 8 + CB_SCALARS * 8)
+#define CB_SCALARS (3 + 1 + 9 + 3 + 1 + 1 + 1 + 2) /* centroid .. validate_seconds */
+#define CB_PAYLOAD_FIXED (8 * 8 + 4 * 8 + CB_SCALARS * 8)
 
 /* ---------------------------------------------------- little-endian I/O */
 typedef struct writer {
@@ -150,13 +151,14 @@ static pkss_status check_params(pkss_context *ctx, reader *r)
 }
 
 /* ---------------------------------------------------------------- size */
-static int payload_size(size_t m, size_t n_feat, size_t *out)
+static int payload_size(size_t m, size_t n_feat, size_t m_dense, size_t *out)
 {
-    /* m <= 2^31 and n_feat <= m (checked on load), so no overflow here on
-     * 64-bit size_t; guard the 32-bit case anyway. */
-    if (m > (SIZE_MAX - CB_PAYLOAD_FIXED) / 64 || n_feat > m)
+    /* m, m_dense <= 2^31 and n_feat <= m (checked on load), so no overflow
+     * here on 64-bit size_t; guard the 32-bit case anyway. */
+    if (m > (SIZE_MAX - CB_PAYLOAD_FIXED) / 128 || n_feat > m ||
+        m_dense > (SIZE_MAX - CB_PAYLOAD_FIXED) / 128)
         return 0;
-    *out = CB_PAYLOAD_FIXED + 2 * 3 * 8 * m + 4 * n_feat;
+    *out = CB_PAYLOAD_FIXED + 2 * 3 * 8 * m + 4 * n_feat + 2 * 3 * 8 * m_dense;
     return 1;
 }
 
@@ -166,7 +168,7 @@ pkss_status pkss_cloud_serialize(const pkss_cloud *cloud, void *buf,
     if (!cloud || !needed)
         return PKSS_ERR_NULL_ARGUMENT;
     size_t payload;
-    if (!payload_size(cloud->m, cloud->n_feat, &payload))
+    if (!payload_size(cloud->m, cloud->n_feat, cloud->m_dense, &payload))
         return PKSS_ERR_INTERNAL;
     size_t total = CB_HEADER_SIZE + payload;
     *needed = total;
@@ -194,6 +196,7 @@ pkss_status pkss_cloud_serialize(const pkss_cloud *cloud, void *buf,
     put_u64(&w, cloud->m);
     put_u64(&w, cloud->n_feat);
     put_u64(&w, cloud->m_coarse);
+    put_u64(&w, cloud->m_dense);
     for (int d = 0; d < 3; ++d)
         put_f64(&w, cloud->centroid[d]);
     put_f64(&w, cloud->sigma);
@@ -203,12 +206,17 @@ pkss_status pkss_cloud_serialize(const pkss_cloud *cloud, void *buf,
         put_f64(&w, cloud->half_extent[d]);
     put_f64(&w, cloud->spacing);
     put_f64(&w, cloud->spacing_coarse);
+    put_f64(&w, cloud->spacing_dense);
     put_f64(&w, cloud->prep_seconds);
     put_f64(&w, cloud->validate_seconds);
     for (size_t i = 0; i < 3 * cloud->m; ++i)
         put_f64(&w, cloud->pre[i]);
     for (size_t i = 0; i < 3 * cloud->m; ++i)
         put_f64(&w, cloud->normal[i]);
+    for (size_t i = 0; i < 3 * cloud->m_dense; ++i)
+        put_f64(&w, cloud->dense[i]);
+    for (size_t i = 0; i < 3 * cloud->m_dense; ++i)
+        put_f64(&w, cloud->normal_dense[i]);
     for (size_t i = 0; i < cloud->n_feat; ++i)
         put_u32(&w, cloud->feat[i]);
     if ((size_t)(w.p - base) != total)
@@ -242,17 +250,19 @@ static pkss_status read_payload(pkss_context *ctx, reader *r, size_t total,
                            &k->features,   &k->duplicates};
     for (int i = 0; i < 8; ++i)
         *counts[i] = get_u64(r);
-    uint64_t m = get_u64(r), n_feat = get_u64(r), m_coarse = get_u64(r);
+    uint64_t m = get_u64(r), n_feat = get_u64(r), m_coarse = get_u64(r),
+             m_dense = get_u64(r);
     PKSS_RETURN_IF(m < 4 || m > 0x7fffffffu || n_feat == 0 || n_feat > m ||
-                       m_coarse == 0 || m_coarse > m || k->resampled != m,
+                       m_coarse == 0 || m_coarse > m || k->resampled != m ||
+                       m_dense < m || m_dense > 0x7fffffffu,
                    ctx, PKSS_ERR_CORRUPT_DATA,
                    "serialised cloud: inconsistent sizes (m = %llu, features "
-                   "= %llu, coarse = %llu, resampled = %llu)",
+                   "= %llu, coarse = %llu, resampled = %llu, dense = %llu)",
                    (unsigned long long)m, (unsigned long long)n_feat,
                    (unsigned long long)m_coarse,
-                   (unsigned long long)k->resampled);
+                   (unsigned long long)k->resampled, (unsigned long long)m_dense);
     size_t payload = 0;
-    PKSS_RETURN_IF(!payload_size((size_t)m, (size_t)n_feat, &payload) ||
+    PKSS_RETURN_IF(!payload_size((size_t)m, (size_t)n_feat, (size_t)m_dense, &payload) ||
                        CB_HEADER_SIZE + payload != total,
                    ctx, PKSS_ERR_CORRUPT_DATA,
                    "serialised cloud: %llu points and %llu features need "
@@ -262,6 +272,7 @@ static pkss_status read_payload(pkss_context *ctx, reader *r, size_t total,
     c->m = (size_t)m;
     c->n_feat = (size_t)n_feat;
     c->m_coarse = (size_t)m_coarse;
+    c->m_dense = (size_t)m_dense;
     for (int d = 0; d < 3; ++d)
         c->centroid[d] = get_f64(r);
     c->sigma = get_f64(r);
@@ -271,18 +282,25 @@ static pkss_status read_payload(pkss_context *ctx, reader *r, size_t total,
         c->half_extent[d] = get_f64(r);
     c->spacing = get_f64(r);
     c->spacing_coarse = get_f64(r);
+    c->spacing_dense = get_f64(r);
     c->prep_seconds = get_f64(r);
     c->validate_seconds = get_f64(r);
     c->pre = pkss__malloc(3 * c->m * sizeof(double));
     c->normal = pkss__malloc(3 * c->m * sizeof(double));
     c->feat = pkss__malloc(c->n_feat * sizeof(uint32_t));
-    PKSS_RETURN_IF(!c->pre || !c->normal || !c->feat, ctx,
+    c->dense = pkss__malloc(3 * c->m_dense * sizeof(double));
+    c->normal_dense = pkss__malloc(3 * c->m_dense * sizeof(double));
+    PKSS_RETURN_IF(!c->pre || !c->normal || !c->feat || !c->dense || !c->normal_dense, ctx,
                    PKSS_ERR_OUT_OF_MEMORY,
                    "out of memory restoring a cloud of %zu points", c->m);
     for (size_t i = 0; i < 3 * c->m; ++i)
         c->pre[i] = get_f64(r);
     for (size_t i = 0; i < 3 * c->m; ++i)
         c->normal[i] = get_f64(r);
+    for (size_t i = 0; i < 3 * c->m_dense; ++i)
+        c->dense[i] = get_f64(r);
+    for (size_t i = 0; i < 3 * c->m_dense; ++i)
+        c->normal_dense[i] = get_f64(r);
     for (size_t i = 0; i < c->n_feat; ++i) {
         c->feat[i] = get_u32(r);
         PKSS_RETURN_IF(c->feat[i] >= c->m, ctx, PKSS_ERR_CORRUPT_DATA,
@@ -296,9 +314,12 @@ static pkss_status read_payload(pkss_context *ctx, reader *r, size_t total,
     memcpy(scalars + 13, c->half_extent, sizeof c->half_extent);
     scalars[16] = c->spacing;
     scalars[17] = c->spacing_coarse;
+    scalars[18] = c->spacing_dense;
     PKSS_RETURN_IF(!all_finite(scalars, CB_SCALARS - 2) || !(c->sigma > 0) ||
                        !all_finite(c->pre, 3 * c->m) ||
-                       !all_finite(c->normal, 3 * c->m),
+                       !all_finite(c->normal, 3 * c->m) ||
+                       !all_finite(c->dense, 3 * c->m_dense) ||
+                       !all_finite(c->normal_dense, 3 * c->m_dense),
                    ctx, PKSS_ERR_CORRUPT_DATA,
                    "serialised cloud: a coordinate, normal or frame value is "
                    "not finite (or sigma <= 0)");
@@ -368,6 +389,8 @@ pkss_status pkss_cloud_deserialize(pkss_context *ctx, const void *buf,
         st = pkss__kdtree_build(c->pre, c->m, &c->tree);
         if (st == PKSS_OK)
             st = pkss__kdtree_build(c->pre, c->m_coarse, &c->tree_coarse);
+        if (st == PKSS_OK)
+            st = pkss__kdtree_build(c->dense, c->m_dense, &c->tree_dense);
         if (st != PKSS_OK)
             st = pkss__fail(ctx, st, "out of memory rebuilding the kd-trees "
                             "of a cloud of %zu points", c->m);

@@ -116,6 +116,7 @@ typedef struct lookup_job {
     const pkss__pose *T;
     double g2, g2s;
     pkss__icp_work *w;
+    size_t total; /* src->m: forward only; src->m + tgt->m: both ways */
     atomic_size_t next;
 } lookup_job;
 
@@ -138,7 +139,7 @@ static void lookup_range(const lookup_job *j, size_t a, size_t b)
 static void lookups(void *arg)
 {
     lookup_job *j = arg;
-    const size_t total = j->src->m + j->tgt->m;
+    const size_t total = j->total;
     for (;;) {
         size_t a = atomic_fetch_add_explicit(&j->next, PKSS_LOOKUP_CHUNK,
                                              memory_order_relaxed);
@@ -165,7 +166,16 @@ void pkss__correspond(const pkss__icp_view *src, const pkss__icp_view *tgt,
 {
     double g2 = gate * gate;
     lookup_job job = {.src = src, .tgt = tgt, .T = T, .g2 = g2, .g2s = g2 / (T->s * T->s),
-                      .w = w};
+                      .w = w, .total = src->m + tgt->m};
+    atomic_init(&job.next, 0);
+    pkss__helper_both(pass_helper(src, tgt), lookups, &job, &job);
+}
+
+void pkss__correspond_forward(const pkss__icp_view *src, const pkss__icp_view *tgt,
+                              const pkss__pose *T, double gate, pkss__icp_work *w)
+{
+    lookup_job job = {.src = src, .tgt = tgt, .T = T, .g2 = gate * gate, .w = w,
+                      .total = src->m};
     atomic_init(&job.next, 0);
     pkss__helper_both(pass_helper(src, tgt), lookups, &job, &job);
 }

@@ -67,6 +67,9 @@ void pkss__work_free(pkss__icp_work *w);
  * every template point, both within gate (template units). */
 void pkss__correspond(const pkss__icp_view *src, const pkss__icp_view *tgt,
                       const pkss__pose *T, double gate, pkss__icp_work *w);
+/* The forward half of correspond(): fwd only (bwd keeps its last answers). */
+void pkss__correspond_forward(const pkss__icp_view *src, const pkss__icp_view *tgt,
+                              const pkss__pose *T, double gate, pkss__icp_work *w);
 /* Pair lists from the last correspond() into w->pi / w->pj: forward and
  * backward ones appended from n on, mutual ones from 0; each returns the
  * new count and raises *d2max to the farthest pair (template units). */

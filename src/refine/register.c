@@ -4,8 +4,9 @@
  * rotations x centre offsets (search/), the refinement stages (stages.c),
  * a wide second search, starts from local shape, a shift search (from
  * other rotations too where the winner lies astray) and a slide search
- * where the winner shows a part, and the winner composed back into the
- * caller's coordinates.
+ * where the winner shows a part, the winner's last steps on the template's
+ * dense points, and the winner composed back into the caller's
+ * coordinates.
  */
 #include "refine/ahead.h"
 #include "refine/assess.h"
@@ -297,6 +298,26 @@ static pkss_status slide_stage(pkss_context *ctx, pkss__refinement *rs, int w)
     return PKSS_OK;
 }
 
+/* The winner's last steps on the dense points (fine.c): a sample of the
+ * source's as large as its resampled view, all of the template's; its
+ * scores taken again where they end; timed. */
+static pkss_status fine_stage(pkss_context *ctx, const pkss_cloud *src,
+                              const pkss_cloud *tgt, pkss__refinement *rs, int w)
+{
+    if (!ctx->params.refine)
+        return PKSS_OK;
+    double t0 = pkss__now();
+    pkss__icp_view sd, td;
+    pkss__icp_view_dense(src, src->m, &sd);
+    pkss__icp_view_dense(tgt, tgt->m_dense, &td);
+    sd.run = td.run = ctx->run;
+    pkss_status st = pkss__icp_fine(&rs->v.sv, &rs->v.tv, &sd, &td, &rs->ir[w]);
+    if (st != PKSS_OK)
+        return fail_step(ctx, st);
+    rs->refine_seconds += pkss__now() - t0;
+    return PKSS_OK;
+}
+
 /* Candidate counts after each stage that adds some: which search a
  * candidate came from (pkss_candidate.search). */
 typedef struct stage_ends {
@@ -351,7 +372,7 @@ static void report(const pkss_cloud *src, const pkss_cloud *tgt,
 /* Algorithm 1 after pre-processing: the search set-up, the first search
  * and its refinement, the wide second search, the local-feature starts,
  * the shift searches (the winner's, from other rotations, at other
- * scales), the slide search, and the report. */
+ * scales), the slide search, the winner's last steps, and the report. */
 static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
                        const pkss_cloud *tgt, outcome *out)
 {
@@ -398,6 +419,8 @@ static pkss_status run(pkss_context *ctx, const pkss_cloud *src,
     if ((st = add_and_pick(ctx, rs, &best, pkss__stage_rescale)) != PKSS_OK)
         goto done;
     if ((st = slide_stage(ctx, rs, best)) != PKSS_OK)
+        goto done;
+    if ((st = fine_stage(ctx, src, tgt, rs, best)) != PKSS_OK)
         goto done;
     out->res.n_rotations = (uint32_t)ss->rot.n_rotations;
     out->res.n_offsets = (uint32_t)ss->n_offsets;
