@@ -320,7 +320,7 @@
  * median point-to-plane distance of the pairs within the ICP's floor gate),
  * if wider: a gate inside the noise cuts its tails unevenly ... */
 #define PKSS_FINE_NOISE_SIGMAS 2.0
-/* ... for at most this many steps (most settle in under 10) */
+/* ... for at most this many steps, as the polish of a run */
 #define PKSS_FINE_ITERS 30
 /* relative slack of a remembered nearest neighbour's test, far above the
  * rounding of the distances it compares */

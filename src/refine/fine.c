@@ -3,13 +3,17 @@
  * (as the polish of icp.c) against the template's dense view, the points
  * culling kept rather than the m resampled ones. Each point of a uniform
  * sample of the source's dense view pairs with its nearest dense template
- * point within PKSS_FINE_GATE dense spacings: at the resampled spacing the
- * gate reaches past the edge of a partial overlap, where pairs lie beside
- * the surface and pull the scale (docs/design.md §5).
+ * point within PKSS_FINE_GATE dense spacings, or PKSS_FINE_NOISE_SIGMAS
+ * sigmas of the contact's noise if wider: at the resampled spacing the gate
+ * reaches past the edge of a partial overlap, where pairs lie beside the
+ * surface and pull the scale (docs/design.md §5).
  */
 #include "refine/icp_parts.h"
 
 #include <math.h>
+
+/* a Gaussian's sigma per median absolute value (the MAD's consistency) */
+#define MEDIAN_ABS_TO_SIGMA 1.4826
 
 void pkss__icp_view_dense(const pkss_cloud *c, size_t m, pkss__icp_view *v)
 {
@@ -22,7 +26,7 @@ void pkss__icp_view_dense(const pkss_cloud *c, size_t m, pkss__icp_view *v)
     v->field = NULL;
 }
 
-/* A robust sigma of the contact's noise at T: 1.4826 x the median distance
+/* A robust sigma of the contact's noise at T: MEDIAN_ABS_TO_SIGMA x the median distance
  * of the sample's points to their partners' planes, paired within the ICP's
  * floor gate (that of the polish the winner ended with); 0 without pairs. */
 static double contact_noise(const pkss__icp_view *tgt, const pkss__icp_view *src_dense,
@@ -44,7 +48,7 @@ static double contact_noise(const pkss__icp_view *tgt, const pkss__icp_view *src
         const double *nv = tgt_dense->normal + 3 * (size_t)w->pj[k];
         r[k] = fabs(nv[0] * (x[0] - y[0]) + nv[1] * (x[1] - y[1]) + nv[2] * (x[2] - y[2]));
     }
-    double sigma = 1.4826 * pkss__select_value(r, n, n / 2);
+    double sigma = MEDIAN_ABS_TO_SIGMA * pkss__select_value(r, n, n / 2);
     pkss__free(r);
     return sigma;
 }

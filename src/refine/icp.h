@@ -29,8 +29,8 @@ typedef struct pkss__icp_view {
 void pkss__icp_view_full(const pkss_cloud *c, pkss__icp_view *v);
 void pkss__icp_view_coarse(const pkss_cloud *c, pkss__icp_view *v);
 /* The first m (at most all) of the points culling kept, a uniform sample
- * in their seeded order (fine.c: the winner's last steps); its tree and
- * normals are those of all of them, for a view of all. */
+ * in their seeded order (fine.c: the winner's last steps). Its tree spans
+ * all of them: a sample (m < m_dense) may only ask, never be asked. */
 void pkss__icp_view_dense(const pkss_cloud *c, size_t m, pkss__icp_view *v);
 
 /* Pairs that drive the free scale. Mutual pairs by default; where one cloud
@@ -135,7 +135,8 @@ pkss_status pkss__icp_run(const pkss__icp_view *src, const pkss__icp_view *tgt,
                           const pkss__pose *init, pkss__icp_result *out);
 /* The winner's last steps (fine.c): point-to-plane steps of io's pose,
  * each point of the source's dense sample paired with its nearest point of
- * the template's dense view within PKSS_FINE_GATE dense spacings, until
+ * the template's dense view within PKSS_FINE_GATE dense spacings (or
+ * PKSS_FINE_NOISE_SIGMAS sigmas of the contact's noise, if wider), until
  * settled or PKSS_FINE_ITERS; then io's scores at the pose it ends at, on
  * the views src and tgt. */
 pkss_status pkss__icp_fine(const pkss__icp_view *src, const pkss__icp_view *tgt,
