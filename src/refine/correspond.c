@@ -156,28 +156,32 @@ static pkss__helper *pass_helper(const pkss__icp_view *src, const pkss__icp_view
     return src->m + tgt->m >= 2 * ICP_THREAD_MIN ? pkss__run_helper(src->run) : NULL;
 }
 
-/* Nearest template point of every source point (fwd) and nearest source
- * point of every template point (bwd), both within gate (template units);
- * UINT32_MAX where none; fwd_d2 / bwd_d2 the squared distances (bwd_d2 in
- * source units, where the backward search runs). Both threads work on the
- * one job, each claiming chunks until none is left. */
-void pkss__correspond(const pkss__icp_view *src, const pkss__icp_view *tgt,
-                      const pkss__pose *T, double gate, pkss__icp_work *w)
+/* One pass's lookups, the first `total` of forward then backward (lookups),
+ * by both threads, each claiming chunks until none is left. */
+static void run_pass(const pkss__icp_view *src, const pkss__icp_view *tgt,
+                     const pkss__pose *T, double gate, pkss__icp_work *w, size_t total)
 {
     double g2 = gate * gate;
     lookup_job job = {.src = src, .tgt = tgt, .T = T, .g2 = g2, .g2s = g2 / (T->s * T->s),
-                      .w = w, .total = src->m + tgt->m};
+                      .w = w, .total = total};
     atomic_init(&job.next, 0);
     pkss__helper_both(pass_helper(src, tgt), lookups, &job, &job);
+}
+
+/* Nearest template point of every source point (fwd) and nearest source
+ * point of every template point (bwd), both within gate (template units);
+ * UINT32_MAX where none; fwd_d2 / bwd_d2 the squared distances (bwd_d2 in
+ * source units, where the backward search runs). */
+void pkss__correspond(const pkss__icp_view *src, const pkss__icp_view *tgt,
+                      const pkss__pose *T, double gate, pkss__icp_work *w)
+{
+    run_pass(src, tgt, T, gate, w, src->m + tgt->m);
 }
 
 void pkss__correspond_forward(const pkss__icp_view *src, const pkss__icp_view *tgt,
                               const pkss__pose *T, double gate, pkss__icp_work *w)
 {
-    lookup_job job = {.src = src, .tgt = tgt, .T = T, .g2 = gate * gate, .w = w,
-                      .total = src->m};
-    atomic_init(&job.next, 0);
-    pkss__helper_both(pass_helper(src, tgt), lookups, &job, &job);
+    run_pass(src, tgt, T, gate, w, src->m);
 }
 
 static void memo_free(pkss__nn_memo *m)

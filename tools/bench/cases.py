@@ -502,13 +502,19 @@ OVERLAP_TOL = {"bunny": 0.001, "dragon": 0.001, "3dmatch": 0.05, "lidar": 0.5,
 _PAIR_CACHE: dict = {}
 
 
+def spacing(x: np.ndarray, tree=None) -> float:
+    """Median nearest-neighbour distance, over at most 5000 seeded points."""
+    tree = tree if tree is not None else cKDTree(x)
+    sub = x[np.random.default_rng(0).choice(len(x), min(len(x), 5000), replace=False)]
+    return float(np.median(tree.query(sub, k=2)[0][:, 1]))
+
+
 def overlap_ratio(src, tgt, T, tol=None) -> float:
     """Share of source points that land, under T, within tol of a target
     point; tol = 3 x the target's median nearest-neighbour spacing."""
     tree = cKDTree(tgt)
     if tol is None:
-        sub = tgt[np.random.default_rng(0).choice(len(tgt), min(len(tgt), 5000), replace=False)]
-        tol = 3.0 * float(np.median(tree.query(sub, k=2)[0][:, 1]))
+        tol = 3.0 * spacing(tgt, tree)
     d, _ = tree.query(apply(T, src), distance_upper_bound=tol)
     return float(np.isfinite(d).mean())
 

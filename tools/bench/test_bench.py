@@ -206,8 +206,8 @@ def test_truth_probe_similarity_icp_mends_a_scale_offset():
     tree = cKDTree(case.target)
     T0 = case.T_gt.copy()
     T0[:3, :3] *= 1.015
-    h = P.spacing(case.target)
-    T = P.settle(T0, case.source, case.target, tree, P.normals(case.target, tree), 3 * h,
+    h = C.spacing(case.target, tree)
+    T = P.settle(T0, case.source, case.target, tree, C.knn_stats(case.target)[0], 3 * h,
                  "similarity")
     assert P.errors(T0, case.T_gt, case.source, C.diameter(case.target))[2] > 1.4
     assert P.errors(T, case.T_gt, case.source, C.diameter(case.target))[2] < 0.05

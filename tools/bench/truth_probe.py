@@ -25,21 +25,6 @@ from metrics import STRICT_RRE_DEG, STRICT_RTE_PCT, STRICT_SCALE_PCT, decompose
 
 MAX_ITERATIONS = 100   # both ICPs settle within 20-60 on the real pairs
 SETTLED = 1e-7         # relative change of the pose that ends a run
-NORMAL_K = 12          # neighbours of a target normal (metrics.py's PCA normals)
-
-
-def spacing(x: np.ndarray) -> float:
-    """Median nearest-neighbour distance over at most 5000 points."""
-    sub = x[np.random.default_rng(0).choice(len(x), min(len(x), 5000), replace=False)]
-    return float(np.median(cKDTree(x).query(sub, k=2)[0][:, 1]))
-
-
-def normals(x: np.ndarray, tree: cKDTree) -> np.ndarray:
-    """Unoriented PCA normals of the NORMAL_K nearest neighbours."""
-    _, nn = tree.query(x, k=NORMAL_K)
-    nb = x[nn] - x[nn].mean(axis=1, keepdims=True)
-    _, _, vt = np.linalg.svd(np.einsum("nki,nkj->nij", nb, nb))
-    return vt[:, 2, :]
 
 
 def umeyama(x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -107,8 +92,8 @@ def errors(T, T_gt, src, diam):
 def probe(src, tgt, T_gt, gates):
     """Rows (mode, gate in spacings, rre, rte %, scale error %, within the bars)."""
     tree = cKDTree(tgt)
-    n = normals(tgt, tree)
-    h = spacing(tgt)
+    n = C.knn_stats(tgt)[0]
+    h = C.spacing(tgt, tree)
     diam = C.diameter(tgt)
     rows = []
     for mode in ("similarity", "plane"):
