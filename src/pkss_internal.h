@@ -267,6 +267,9 @@ typedef struct pkss__knn_graph {
     double *d2;
 } pkss__knn_graph;
 void pkss__knn_graph_free(pkss__knn_graph *g);
+/* The graph of xyz in *g: kept if *g holds one for the same n and k, else
+ * computed there (on failure *g is left empty). */
+pkss_status pkss__knn_graph_of(const double *xyz, size_t n, size_t k, pkss__knn_graph *g);
 /* Carries a graph over to the points kept by keep[] (xyz: the compacted
  * points, n_new of them): indices are renumbered and only the rows that
  * lost a neighbour are recomputed. The result equals a fresh graph. On
@@ -355,8 +358,10 @@ struct pkss_cloud {
     pkss__kdtree *tree_coarse;
     double spacing_coarse;
     /* The points culling kept, before resampling (at most PKSS_CULL_SUBSET
-     * m), in the same pre-shape coordinates, with their tree, normals and
-     * spacing: the dense view of the winner's last steps (refine/fine.c). */
+     * m), in the same pre-shape coordinates and a seeded random order, with
+     * their tree, normals and spacing: the dense view of the winner's last
+     * steps (refine/fine.c). The source of a registration from points has
+     * no tree or normals (pair.c): its view is only sampled. */
     size_t m_dense;
     double *dense;
     double *normal_dense;
@@ -368,8 +373,23 @@ struct pkss_cloud {
     pkss__params prep;
 };
 
+/* A cloud through every pre-processing stage (cloud.c): its dense view's
+ * planes and kd-tree included, over both threads of the call where its
+ * helper is free. */
 pkss_status pkss__cloud_build(pkss_context *ctx, const double *xyz, size_t n,
                               const char *which, pkss_cloud **out);
+/* The same in three steps, for the two clouds of a registration (pair.c),
+ * where only the template's dense view needs planes and a tree (fine.c):
+ * a cloud in the making through every stage but those (NULL after a
+ * failure, described on ctx), ... */
+typedef struct pkss__prep pkss__prep;
+pkss_status pkss__prep_open(pkss_context *ctx, const double *xyz, size_t n,
+                            const char *which, pkss__prep **out);
+/* ... its dense view's planes and kd-tree (on helper too, if free), ... */
+pkss_status pkss__prep_planes(pkss__prep *w, pkss__helper *helper);
+/* ... and its end: the cloud handed to *out, or destroyed with out NULL;
+ * the working state freed (w may be NULL). */
+void pkss__prep_close(pkss__prep *w, pkss_cloud **out);
 /* Both clouds of a registration, the target on the call's helper thread
  * (preshape/pair.c); the source's error is reported first. */
 pkss_status pkss__cloud_build_pair(pkss_context *ctx, const double *source,

@@ -390,6 +390,9 @@
 /* lookups a thread claims at a time in a correspondence pass (~5-40 us of
  * work: the claims cost nothing beside it; speed only) */
 #define PKSS_LOOKUP_CHUNK 128
+/* dense-view planes a thread claims at a time (~0.2 ms of work; speed
+ * only) */
+#define PKSS_PLANES_CHUNK 512
 /* seconds a thread spins for a hand-over before it sleeps: ICP iterations
  * hand over every few hundred us, a wake-up costs 20-60 us (helper.c) */
 #define PKSS_HELPER_SPIN 100e-6

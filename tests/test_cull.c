@@ -648,6 +648,83 @@ static void test_shared_graph(void **state)
     free(x);
 }
 
+/* Each sampled dense point's normal is the plane of its K nearest dense
+ * points (brute force, in the view's own shuffled order), and the view's
+ * kd-tree answers a query beside it as brute force does. */
+static void check_dense_view(const pkss_cloud *c)
+{
+    const size_t m = c->m_dense;
+    const double h = c->spacing_dense;
+    double *d2 = malloc(m * sizeof(double));
+    for (size_t i = 0; i < m; i += m / 97) {
+        const double *p = c->dense + 3 * i;
+        for (size_t j = 0; j < m; ++j)
+            d2[j] = j == i ? INFINITY : pkss__dist2(p, c->dense + 3 * j);
+        double nb[3 * K], mean[3] = {0, 0, 0}, C[9] = {0}, ev[3], V[9];
+        for (int k = 0; k < K; ++k) { /* the K nearest, by selection */
+            size_t best = 0;
+            for (size_t j = 1; j < m; ++j)
+                best = d2[j] < d2[best] ? j : best;
+            memcpy(nb + 3 * k, c->dense + 3 * best, sizeof(double[3]));
+            d2[best] = INFINITY;
+            for (int d = 0; d < 3; ++d)
+                mean[d] += nb[3 * k + d] / K;
+        }
+        for (int k = 0; k < K; ++k)
+            for (int a = 0; a < 3; ++a)
+                for (int b = 0; b < 3; ++b)
+                    C[3 * a + b] += (nb[3 * k + a] - mean[a]) * (nb[3 * k + b] - mean[b]);
+        pkss__eig_sym3(C, ev, V);
+        const double *nv = c->normal_dense + 3 * i;
+        double dot = fabs(nv[0] * V[2] + nv[1] * V[5] + nv[2] * V[8]);
+        assert_true(dot > 1.0 - 1e-9);
+        const double q[3] = {p[0] + 0.3 * h, p[1] - 0.2 * h, p[2] + 0.1 * h};
+        size_t best = 0;
+        for (size_t j = 1; j < m; ++j)
+            if (pkss__dist2(q, c->dense + 3 * j) < pkss__dist2(q, c->dense + 3 * best))
+                best = j;
+        double got_d2;
+        assert_int_equal(pkss__kdtree_nearest(c->tree_dense, q, INFINITY, &got_d2), best);
+    }
+    free(d2);
+}
+
+/* The dense view's planes come from culling's graph (or a queried one with
+ * culling off), split between the two threads of the call (cloud.c:
+ * pkss__prep_planes): each is its point's plane (check_dense_view), and the
+ * same with the helper as without. */
+static void test_dense_view_planes(void **state)
+{
+    (void)state;
+    size_t n = 0;
+    double *x = pkss_test_load("stanford_bunny/reconstruction/bun_zipper_res2.ply", &n);
+    assert_non_null(x); /* unreadable: reason printed */
+    pkss_context *ctx;
+    assert_int_equal(pkss_context_create(&ctx), PKSS_OK);
+    pkss_cloud *c = NULL;
+    assert_int_equal(pkss_cloud_create(ctx, x, n, &c), PKSS_OK);
+    const size_t m = c->m_dense;
+    assert_true(m > c->m && c->normal_dense && c->tree_dense);
+    check_dense_view(c);
+    pkss__prep *w = NULL;
+    pkss_cloud *alone = NULL;
+    assert_int_equal(pkss__prep_open(ctx, x, n, "test", &w), PKSS_OK);
+    assert_int_equal(pkss__prep_planes(w, NULL), PKSS_OK); /* one thread */
+    pkss__prep_close(w, &alone);
+    assert_int_equal(alone->m_dense, m);
+    assert_memory_equal(alone->dense, c->dense, 3 * m * sizeof(double));
+    assert_memory_equal(alone->normal_dense, c->normal_dense, 3 * m * sizeof(double));
+    pkss_cloud_destroy(alone);
+    pkss_cloud_destroy(c);
+    assert_int_equal(pkss_context_set_int(ctx, PKSS_PARAM_CULL_MUTUAL, PKSS_SWITCH_OFF), PKSS_OK);
+    assert_int_equal(pkss_context_set_int(ctx, PKSS_PARAM_CULL_STAT, PKSS_SWITCH_OFF), PKSS_OK);
+    assert_int_equal(pkss_cloud_create(ctx, x, n, &c), PKSS_OK);
+    check_dense_view(c);
+    pkss_cloud_destroy(c);
+    pkss_context_destroy(ctx);
+    free(x);
+}
+
 int main(void)
 {
     g_seed = pkss_test_seed(PROGRAM, 20240613);
@@ -660,6 +737,7 @@ int main(void)
         cmocka_unit_test(test_duplicate_stack),
         cmocka_unit_test(test_determinism),
         cmocka_unit_test(test_shared_graph),
+        cmocka_unit_test(test_dense_view_planes),
         cmocka_unit_test(test_small_and_contract),
         cmocka_unit_test(test_out_of_memory),
         cmocka_unit_test(test_objects_with_box_outliers),

@@ -7,6 +7,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -262,26 +263,33 @@ static void top_by_value(const double *d, size_t m, size_t nf, double *scratch,
     }
 }
 
-/* The least-squares plane of each point's k neighbours (idx, m x k, self
- * excluded): its unit normal and the point's distance to it (ds, or NULL). */
+/* The least-squares plane of point p's k neighbours (row: their indices
+ * into pts, self excluded): its unit normal and p's distance to it (ds, or
+ * NULL). */
+static void point_plane(const double *pts, const uint32_t *row, size_t k, const double *p,
+                        double *normal, double *ds)
+{
+    double nb[3 * PKSS_KNN_K];
+    for (size_t j = 0; j < k; ++j)
+        memcpy(nb + 3 * j, pts + 3 * row[j], 3 * sizeof(double));
+    double w[3], V[9], mean[3];
+    covariance(nb, k, mean, w, V);
+    /* normal = eigenvector of the smallest eigenvalue (column 2) */
+    if (ds)
+        *ds = fabs((p[0] - mean[0]) * V[2] + (p[1] - mean[1]) * V[5] +
+                   (p[2] - mean[2]) * V[8]);
+    for (int d = 0; d < 3; ++d)
+        normal[d] = V[3 * d + 2];
+}
+
+/* The planes of every point (point_plane; idx: m x k neighbours). */
 static pkss_status neighbour_planes(const double *pts, size_t m, const uint32_t *idx,
                                     size_t k, double *normal, double *ds, pkss__run *run)
 {
     for (size_t i = 0; i < m; ++i) {
         if (i % 1024 == 0 && pkss__tick(run) != PKSS_OK)
             return PKSS_ERR_CANCELLED;
-        double nb[3 * PKSS_KNN_K];
-        for (size_t j = 0; j < k; ++j)
-            memcpy(nb + 3 * j, pts + 3 * idx[k * i + j], 3 * sizeof(double));
-        double w[3], V[9], mean[3];
-        covariance(nb, k, mean, w, V);
-        const double *p = pts + 3 * i;
-        /* normal = eigenvector of the smallest eigenvalue (column 2) */
-        if (ds)
-            ds[i] = fabs((p[0] - mean[0]) * V[2] + (p[1] - mean[1]) * V[5] +
-                         (p[2] - mean[2]) * V[8]);
-        for (int d = 0; d < 3; ++d)
-            normal[3 * i + d] = V[3 * d + 2];
+        point_plane(pts, idx + k * i, k, pts + 3 * i, normal + 3 * i, ds ? ds + i : NULL);
     }
     return PKSS_OK;
 }
@@ -400,7 +408,7 @@ static void pca_frame(pkss_cloud *c)
 
 /* One cloud in the making: the working copy of its points and the
  * buffers the stages below share. */
-typedef struct prep {
+struct pkss__prep {
     pkss_context *ctx;
     const pkss__params *p;
     const char *which;
@@ -411,7 +419,10 @@ typedef struct prep {
     unsigned char *keep;
     uint32_t *sel;
     pkss__knn_graph graph; /* culling's kNN graph of the kept points, if any */
-} prep;
+    uint32_t *dense_order; /* the dense view's point i is kept point dense_order[i] */
+    double t_stages;       /* when the stages began (validation done) */
+};
+typedef struct pkss__prep prep;
 
 /* Each stage returns PKSS_OK, PKSS_ERR_OUT_OF_MEMORY (reported by the
  * driver with the stage's point count) or a failure it has described. */
@@ -521,7 +532,7 @@ static pkss_status cull_outliers(prep *w)
     }
     if (st != PKSS_OK)
         pkss__knn_graph_free(&graph);
-    w->graph = graph; /* the dense view's planes (dense_view) */
+    w->graph = graph; /* the dense view's planes (pkss__prep_planes) */
     PKSS_FORWARD(st);
     w->c->counts.after_stat = w->np;
     PKSS_RETURN_IF(w->np < (size_t)p->min_points, w->ctx, PKSS_ERR_TOO_FEW_POINTS,
@@ -592,58 +603,90 @@ static pkss_status features(prep *w)
 
 #define DENSE_ORDER_STREAM 0xde45e0dde4ULL
 
-/* The planes and nearest distances of the points culling kept, from its kNN
- * graph where it has one for them (their neighbours), else queried. */
-static pkss_status kept_planes(prep *w, double *normal, double *nn)
+/* The kNN graph of the kept points: culling's, else queried (culling off). */
+static pkss_status kept_graph(prep *w)
 {
-    const pkss__knn_graph *g = &w->graph;
-    if (!g->idx || g->n != w->np || g->k != PKSS_KNN_K) {
-        pkss__kdtree *tree = NULL;
-        pkss_status st = pkss__kdtree_build(w->pts, w->np, &tree);
-        if (st == PKSS_OK)
-            st = local_planes(tree, w->pts, w->np, normal, NULL, nn, w->ctx->run);
-        pkss__kdtree_free(tree);
-        return st;
-    }
-    for (size_t i = 0; i < w->np; ++i)
-        nn[i] = sqrt(g->d2[g->k * i]);
-    return neighbour_planes(w->pts, w->np, g->idx, g->k, normal, NULL, w->ctx->run);
+    size_t k = w->np - 1 < PKSS_KNN_K ? w->np - 1 : PKSS_KNN_K;
+    return pkss__knn_graph_of(w->pts, w->np, k, &w->graph);
 }
 
-/* The dense view: the points culling kept, mapped as the resampled ones
+/* The dense view's points: those culling kept, mapped as the resampled ones
  * were (Eq. 2, the resampled points' mean and sigma), in a seeded random
  * order (every prefix is a uniform sample: unlike FPS, which favours points
- * that noise pushed outward), with their planes, tree and median spacing. */
-static pkss_status dense_view(prep *w)
+ * that noise pushed outward), and their median spacing. Their planes and
+ * tree come after the stages (pkss__prep_planes). */
+static pkss_status dense_points(prep *w)
 {
     pkss_cloud *c = w->c;
     const size_t n = w->np;
+    PKSS_FORWARD(kept_graph(w));
     c->dense = pkss__malloc(3 * n * sizeof(double));
-    c->normal_dense = pkss__malloc(3 * n * sizeof(double));
+    w->dense_order = pkss__malloc(n * sizeof(uint32_t));
     double *nn = pkss__malloc(n * sizeof(double));
-    pkss_status st = c->dense && c->normal_dense && nn ? kept_planes(w, c->normal_dense, nn)
-                                                       : PKSS_ERR_OUT_OF_MEMORY;
+    pkss_status st = c->dense && w->dense_order && nn ? PKSS_OK : PKSS_ERR_OUT_OF_MEMORY;
     if (st == PKSS_OK) {
+        for (size_t i = 0; i < n; ++i)
+            nn[i] = sqrt(w->graph.d2[w->graph.k * i]);
         c->spacing_dense = pkss__select_value(nn, n, n / 2) / c->sigma;
+        uint32_t *order = w->dense_order;
+        for (size_t i = 0; i < n; ++i)
+            order[i] = (uint32_t)i;
+        uint64_t rng = (uint64_t)w->p->seed ^ DENSE_ORDER_STREAM;
+        for (size_t i = n; i > 1; --i) { /* Fisher-Yates */
+            size_t j = (size_t)(pkss__splitmix64(&rng) % i);
+            uint32_t t = order[i - 1];
+            order[i - 1] = order[j];
+            order[j] = t;
+        }
         for (size_t i = 0; i < n; ++i)
             for (int d = 0; d < 3; ++d)
-                c->dense[3 * i + d] = (w->pts[3 * i + d] - c->centroid[d]) / c->sigma;
-        uint64_t rng = (uint64_t)w->p->seed ^ DENSE_ORDER_STREAM;
-        for (size_t i = n; i > 1; --i) { /* Fisher-Yates, points and normals */
-            size_t j = (size_t)(pkss__splitmix64(&rng) % i);
-            double *arr[2] = {c->dense, c->normal_dense};
-            for (int a = 0; a < 2; ++a) {
-                double t[3];
-                memcpy(t, arr[a] + 3 * (i - 1), sizeof t);
-                memcpy(arr[a] + 3 * (i - 1), arr[a] + 3 * j, sizeof t);
-                memcpy(arr[a] + 3 * j, t, sizeof t);
-            }
-        }
+                c->dense[3 * i + d] =
+                    (w->pts[3 * (size_t)order[i] + d] - c->centroid[d]) / c->sigma;
         c->m_dense = n;
-        st = pkss__kdtree_build(c->dense, n, &c->tree_dense);
     }
     pkss__free(nn);
-    return st == PKSS_ERR_CANCELLED ? pkss__cancel_fail(w->ctx) : st;
+    return st;
+}
+
+/* The dense view's planes, claimed PKSS_PLANES_CHUNK points at a time by
+ * both threads of the call; the helper's part first builds the view's
+ * kd-tree (it needs the points alone). Each point's plane is its own, so
+ * which thread computes it never changes it. */
+typedef struct planes_job {
+    prep *w;
+    atomic_size_t next;
+} planes_job;
+
+typedef struct planes_part {
+    planes_job *job;
+    int builds_tree;
+    pkss_status st;
+} planes_part;
+
+static void planes_worker(void *arg)
+{
+    planes_part *part = arg;
+    prep *w = part->job->w;
+    pkss_cloud *c = w->c;
+    const pkss__knn_graph *g = &w->graph;
+    part->st = part->builds_tree ? pkss__kdtree_build(c->dense, c->m_dense, &c->tree_dense)
+                                 : PKSS_OK;
+    while (part->st == PKSS_OK) {
+        size_t a = atomic_fetch_add_explicit(&part->job->next, PKSS_PLANES_CHUNK,
+                                             memory_order_relaxed);
+        if (a >= c->m_dense)
+            break;
+        if (pkss__tick(w->ctx->run) != PKSS_OK) {
+            part->st = PKSS_ERR_CANCELLED;
+            break;
+        }
+        size_t b = a + PKSS_PLANES_CHUNK < c->m_dense ? a + PKSS_PLANES_CHUNK : c->m_dense;
+        for (size_t i = a; i < b; ++i) {
+            size_t o = w->dense_order[i];
+            point_plane(w->pts, g->idx + g->k * o, g->k, w->pts + 3 * o,
+                        c->normal_dense + 3 * i, NULL);
+        }
+    }
 }
 
 /* The coarse view and the PCA frame (Eq. 11). */
@@ -661,7 +704,7 @@ static const struct {
 } PREP_STAGES[] = {
     {0, thin_in_place}, {0, drop_duplicates}, {1, thin_copy},
     {1, subset_for_culling}, {2, cull_outliers}, {3, resample}, {3, map_to_preshape},
-    {4, build_tree},    {5, features},        {5, dense_view},
+    {4, build_tree},    {5, features},        {5, dense_points},
     {5, coarse_and_frame},
 };
 
@@ -685,33 +728,90 @@ static pkss_status run_stages(prep *w)
     return PKSS_OK;
 }
 
+static void prep_free(prep *w)
+{
+    pkss__free(w->pts);
+    pkss__free(w->keep);
+    pkss__free(w->sel);
+    pkss__free(w->dense_order);
+    pkss__knn_graph_free(&w->graph);
+    pkss__free(w);
+}
+
+pkss_status pkss__prep_open(pkss_context *ctx, const double *xyz, size_t n,
+                            const char *which, prep **out)
+{
+    *out = NULL;
+    double t0 = pkss__now();
+    prep *w = pkss__calloc(1, sizeof *w);
+    pkss_cloud *c = pkss__calloc(1, sizeof(pkss_cloud));
+    if (!w || !c) {
+        pkss__free(w);
+        pkss__free(c);
+        return pkss__fail(ctx, PKSS_ERR_OUT_OF_MEMORY, "out of memory");
+    }
+    *w = (prep){.ctx = ctx, .p = &ctx->params, .which = which, .c = c};
+    c->counts.input = n;
+    c->prep = ctx->params; /* what the cloud was prepared under (cloud_bytes.c) */
+    pkss_status st = validate(ctx, xyz, n, which, &w->in, &w->pts, &w->np,
+                              &c->counts.nonfinite);
+    w->t_stages = pkss__now();
+    c->validate_seconds = w->t_stages - t0;
+    if (st == PKSS_OK)
+        st = run_stages(w);
+    if (st != PKSS_OK) {
+        pkss__prep_close(w, NULL);
+        return st;
+    }
+    *out = w;
+    return PKSS_OK;
+}
+
+pkss_status pkss__prep_planes(prep *w, pkss__helper *helper)
+{
+    pkss_cloud *c = w->c;
+    c->normal_dense = pkss__malloc(3 * c->m_dense * sizeof(double));
+    if (!c->normal_dense)
+        return pkss__fail(w->ctx, PKSS_ERR_OUT_OF_MEMORY,
+                          "out of memory pre-processing the %s cloud (%zu points)",
+                          w->which, c->m_dense);
+    planes_job job = {.w = w};
+    atomic_init(&job.next, 0);
+    planes_part parts[2] = {{&job, 0, PKSS_OK}, {&job, 1, PKSS_OK}};
+    pkss__helper_both(helper, planes_worker, &parts[0], &parts[1]);
+    for (int i = 0; i < 2; ++i) {
+        if (parts[i].st == PKSS_ERR_CANCELLED)
+            return pkss__cancel_fail(w->ctx);
+        if (parts[i].st != PKSS_OK)
+            return pkss__fail(w->ctx, parts[i].st,
+                              "out of memory pre-processing the %s cloud (%zu points)",
+                              w->which, c->m_dense);
+    }
+    return PKSS_OK;
+}
+
+void pkss__prep_close(prep *w, pkss_cloud **out)
+{
+    if (!w)
+        return;
+    pkss_cloud *c = w->c;
+    c->prep_seconds = pkss__now() - w->t_stages;
+    prep_free(w);
+    if (out)
+        *out = c;
+    else
+        pkss_cloud_destroy(c);
+}
+
 pkss_status pkss__cloud_build(pkss_context *ctx, const double *xyz, size_t n,
                               const char *which, pkss_cloud **out)
 {
     *out = NULL;
-    double t0 = pkss__now();
-    prep w = {ctx, &ctx->params, which, pkss__calloc(1, sizeof(pkss_cloud)),
-              NULL, NULL, 0, NULL, NULL, {0, 0, NULL, NULL}};
-    PKSS_RETURN_IF(!w.c, ctx, PKSS_ERR_OUT_OF_MEMORY, "out of memory");
-    w.c->counts.input = n;
-    w.c->prep = ctx->params; /* what the cloud was prepared under (cloud_bytes.c) */
-    pkss_status st = validate(ctx, xyz, n, which, &w.in, &w.pts, &w.np,
-                              &w.c->counts.nonfinite);
-    double t1 = pkss__now();
-    w.c->validate_seconds = t1 - t0;
-    if (st == PKSS_OK)
-        st = run_stages(&w);
-    w.c->prep_seconds = pkss__now() - t1;
-    pkss__free(w.pts);
-    pkss__free(w.keep);
-    pkss__free(w.sel);
-    pkss__knn_graph_free(&w.graph);
-    if (st != PKSS_OK) {
-        pkss_cloud_destroy(w.c);
-        return st;
-    }
-    *out = w.c;
-    return PKSS_OK;
+    prep *w = NULL;
+    PKSS_FORWARD(pkss__prep_open(ctx, xyz, n, which, &w));
+    pkss_status st = pkss__prep_planes(w, pkss__run_helper(ctx->run));
+    pkss__prep_close(w, st == PKSS_OK ? out : NULL);
+    return st;
 }
 
 /* ------------------------------------------------------------ public */

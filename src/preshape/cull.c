@@ -128,18 +128,10 @@ done:
     return st == PKSS_ERR_INTERNAL ? PKSS_OK : st;
 }
 
-/* The kNN graph of xyz: taken from *cache when it was built for the same
- * n and k, else computed. On success idx and d2 point to it; the caller
- * releases it with release_graph(). */
-static pkss_status get_graph(const double *xyz, size_t n, size_t k,
-                             pkss__knn_graph *cache, uint32_t **idx,
-                             double **d2)
+/* The kNN graph of xyz, computed into idx and d2 (freed on failure). */
+static pkss_status compute_graph(const double *xyz, size_t n, size_t k, uint32_t **idx,
+                                 double **d2)
 {
-    if (cache && cache->idx && cache->n == n && cache->k == k) {
-        *idx = cache->idx;
-        *d2 = cache->d2;
-        return PKSS_OK;
-    }
     pkss__kdtree *tree = NULL;
     *idx = pkss__malloc(n * k * sizeof(uint32_t));
     *d2 = pkss__malloc(n * k * sizeof(double));
@@ -157,6 +149,32 @@ static pkss_status get_graph(const double *xyz, size_t n, size_t k,
         *d2 = NULL;
     }
     return st;
+}
+
+/* The kNN graph of xyz: taken from *cache when it was built for the same
+ * n and k, else computed. On success idx and d2 point to it; the caller
+ * releases it with release_graph(). */
+static pkss_status get_graph(const double *xyz, size_t n, size_t k,
+                             pkss__knn_graph *cache, uint32_t **idx,
+                             double **d2)
+{
+    if (cache && cache->idx && cache->n == n && cache->k == k) {
+        *idx = cache->idx;
+        *d2 = cache->d2;
+        return PKSS_OK;
+    }
+    return compute_graph(xyz, n, k, idx, d2);
+}
+
+pkss_status pkss__knn_graph_of(const double *xyz, size_t n, size_t k, pkss__knn_graph *g)
+{
+    if (g->idx && g->n == n && g->k == k)
+        return PKSS_OK;
+    pkss__knn_graph_free(g);
+    PKSS_FORWARD(compute_graph(xyz, n, k, &g->idx, &g->d2));
+    g->n = n;
+    g->k = k;
+    return PKSS_OK;
 }
 
 /* Hands a freshly computed graph to the cache (if any), or frees it. */

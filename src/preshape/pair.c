@@ -1,6 +1,8 @@
 /* SPDX-License-Identifier: MIT
  * pair.c -- pre-processing the two clouds of a registration at once: the
- * source on the calling thread, the target on the call's helper thread.
+ * source on the calling thread, the target on the call's helper thread;
+ * then the target's dense-view planes and tree on both. The source's dense
+ * view is only sampled (fine.c), so it gets neither.
  */
 #include "pkss_internal.h"
 
@@ -13,14 +15,14 @@ typedef struct build_job {
     const double *xyz;
     size_t n;
     const char *which;
-    pkss_cloud *cloud;
+    pkss__prep *prep;
     pkss_status st;
 } build_job;
 
 static void build_worker(void *arg)
 {
     build_job *j = arg;
-    j->st = pkss__cloud_build(&j->ctx, j->xyz, j->n, j->which, &j->cloud);
+    j->st = pkss__prep_open(&j->ctx, j->xyz, j->n, j->which, &j->prep);
 }
 
 /* While the helper builds the target, the caller keeps the progress
@@ -57,6 +59,8 @@ pkss_status pkss__cloud_build_pair(pkss_context *ctx, const double *source,
         wait_ticking(ctx, helper, ticket);
     else
         build_worker(&jobs[1]);
+    if (jobs[0].st == PKSS_OK && jobs[1].st == PKSS_OK)
+        jobs[1].st = pkss__prep_planes(jobs[1].prep, helper);
     /* the source's error first, as in a sequential run */
     pkss_status st = PKSS_OK;
     for (int i = 0; i < 2 && st == PKSS_OK; ++i)
@@ -64,13 +68,8 @@ pkss_status pkss__cloud_build_pair(pkss_context *ctx, const double *source,
             st = jobs[i].st;
             memcpy(ctx->detail, jobs[i].ctx.detail, sizeof ctx->detail);
         }
-    if (st == PKSS_OK) {
-        *src = jobs[0].cloud;
-        *tgt = jobs[1].cloud;
-    } else {
-        pkss_cloud_destroy(jobs[0].cloud);
-        pkss_cloud_destroy(jobs[1].cloud);
-    }
+    pkss__prep_close(jobs[0].prep, st == PKSS_OK ? src : NULL);
+    pkss__prep_close(jobs[1].prep, st == PKSS_OK ? tgt : NULL);
     pkss__free(jobs);
     return st;
 }
