@@ -357,11 +357,10 @@ struct pkss_cloud {
     size_t m_coarse;
     pkss__kdtree *tree_coarse;
     double spacing_coarse;
-    /* The points culling kept, before resampling (at most PKSS_CULL_SUBSET
-     * m), in the same pre-shape coordinates and a seeded random order, with
-     * their tree, normals and spacing: the dense view of the winner's last
-     * steps (refine/fine.c). The source of a registration from points has
-     * no tree or normals (pair.c): its view is only sampled. */
+    /* The points culling kept (at most PKSS_CULL_SUBSET m), in pre-shape
+     * coordinates and a seeded random order, with their tree, normals and
+     * spacing: the dense view of the last steps (refine/fine.c). A
+     * registration's source from points has no tree or normals (pair.c). */
     size_t m_dense;
     double *dense;
     double *normal_dense;

@@ -610,11 +610,10 @@ static pkss_status kept_graph(prep *w)
     return pkss__knn_graph_of(w->pts, w->np, k, &w->graph);
 }
 
-/* The dense view's points: those culling kept, mapped as the resampled ones
- * were (Eq. 2, the resampled points' mean and sigma), in a seeded random
- * order (every prefix is a uniform sample: unlike FPS, which favours points
- * that noise pushed outward), and their median spacing. Their planes and
- * tree come after the stages (pkss__prep_planes). */
+/* The dense view's points: those culling kept, mapped by the resampled
+ * points' mean and sigma (Eq. 2), seeded-shuffled (a prefix is a uniform
+ * sample; FPS favours points noise pushed outward), and their median
+ * spacing. Their planes and tree: pkss__prep_planes. */
 static pkss_status dense_points(prep *w)
 {
     pkss_cloud *c = w->c;
