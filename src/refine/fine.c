@@ -57,8 +57,8 @@ pkss_status pkss__icp_fine(const pkss__icp_view *src, const pkss__icp_view *tgt,
                            const pkss__icp_view *src_dense,
                            const pkss__icp_view *tgt_dense, pkss__icp_result *io)
 {
-    pkss__icp_work w;
-    if (!pkss__work_alloc(&w, src_dense->m, tgt_dense->m, 1))
+    pkss__icp_work w; /* forward passes only: no template-side buffers */
+    if (!pkss__work_alloc(&w, src_dense->m, 0, 1))
         return PKSS_ERR_OUT_OF_MEMORY;
     const double gate = fmax(PKSS_FINE_GATE * tgt_dense->spacing,
                              PKSS_FINE_NOISE_SIGMAS *

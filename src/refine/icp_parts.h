@@ -60,7 +60,8 @@ typedef struct pkss__icp_work {
     pkss__nn_memo fwd_memo, bwd_memo;
 } pkss__icp_work;
 
-/* remember: the queries will be repeated from nearby poses (the memos) */
+/* remember: the queries will be repeated from nearby poses (the memos);
+ * nt = 0 for a work that only ever runs forward passes */
 int pkss__work_alloc(pkss__icp_work *w, size_t ns, size_t nt, int remember);
 void pkss__work_free(pkss__icp_work *w);
 /* Nearest template point of every source point and nearest source point of
