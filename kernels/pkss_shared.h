@@ -454,12 +454,14 @@ PKSS_INLINE pkss_vf pkss_pair_residual(const pkss_vf *R, const pkss_vf *x,
 {
     pkss_vf u0 = (x[0] - mx[0]) * sx, u1 = (x[1] - mx[1]) * sx,
             u2 = (x[2] - mx[2]) * sx;
+    /* written out, as in pkss_pair_moments */
+    pkss_vf e0 = R[0] * u0 + R[1] * u1 + R[2] * u2 - (y[0] - my[0]) * sy;
+    pkss_vf e1 = R[3] * u0 + R[4] * u1 + R[5] * u2 - (y[1] - my[1]) * sy;
+    pkss_vf e2 = R[6] * u0 + R[7] * u1 + R[8] * u2 - (y[2] - my[2]) * sy;
     pkss_vf r = PKSS_VF(0.0f);
-    for (int d = 0; d < 3; ++d) {
-        pkss_vf e = R[3 * d] * u0 + R[3 * d + 1] * u1 + R[3 * d + 2] * u2 -
-                    (y[d] - my[d]) * sy;
-        r = r + e * e;
-    }
+    r = r + e0 * e0;
+    r = r + e1 * e1;
+    r = r + e2 * e2;
     return r;
 }
 
@@ -532,10 +534,9 @@ PKSS_INLINE pkss_vi pkss_pair_moments(PKSS_CONST float *src, int shift,
     const pkss_vf zero = PKSS_VF(0.0f);
     pkss_vi k = PKSS_VI(0);
     pkss_vf x[3], y[3], sx[3], sy[3], nx = zero, ny = zero;
-    for (int d = 0; d < 3; ++d)
-        sx[d] = sy[d] = zero;
-    for (int i = 0; i < 9; ++i)
-        H[i] = zero;
+    pkss_vf s0 = zero, s1 = zero, s2 = zero, t0 = zero, t1 = zero, t2 = zero;
+    pkss_vf h0 = zero, h1 = zero, h2 = zero, h3 = zero, h4 = zero, h5 = zero, h6 = zero,
+            h7 = zero, h8 = zero;
     for (int e = 0; e < n_az / 2; ++e)
         for (int a = 0; a < n_az; ++a) {
             pkss_vi m = pkss_load_pair(src, shift, tgt, tgt_stride, n_az, e, a, x, y);
@@ -543,18 +544,37 @@ PKSS_INLINE pkss_vi pkss_pair_moments(PKSS_CONST float *src, int shift,
                 continue;
             m = m & pkss_trim_keeps(f, n_az * e + a, x, y);
             k = k + PKSS_ONE_IF(m);
-            for (int d = 0; d < 3; ++d) {
-                x[d] = PKSS_SEL(m, x[d], zero);
-                y[d] = PKSS_SEL(m, y[d], zero);
-                sx[d] = sx[d] + x[d];
-                sy[d] = sy[d] + y[d];
-            }
-            for (int i = 0; i < 3; ++i)
-                for (int j = 0; j < 3; ++j)
-                    H[3 * i + j] = H[3 * i + j] + x[i] * y[j];
-            nx = nx + (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
-            ny = ny + (y[0] * y[0] + y[1] * y[1] + y[2] * y[2]);
+            /* written out, not looped: a loop over an array makes the
+             * kernel compiler keep the array on the stack */
+            pkss_vf x0 = PKSS_SEL(m, x[0], zero), x1 = PKSS_SEL(m, x[1], zero),
+                    x2 = PKSS_SEL(m, x[2], zero);
+            pkss_vf y0 = PKSS_SEL(m, y[0], zero), y1 = PKSS_SEL(m, y[1], zero),
+                    y2 = PKSS_SEL(m, y[2], zero);
+            s0 = s0 + x0;
+            s1 = s1 + x1;
+            s2 = s2 + x2;
+            t0 = t0 + y0;
+            t1 = t1 + y1;
+            t2 = t2 + y2;
+            h0 = h0 + x0 * y0;
+            h1 = h1 + x0 * y1;
+            h2 = h2 + x0 * y2;
+            h3 = h3 + x1 * y0;
+            h4 = h4 + x1 * y1;
+            h5 = h5 + x1 * y2;
+            h6 = h6 + x2 * y0;
+            h7 = h7 + x2 * y1;
+            h8 = h8 + x2 * y2;
+            nx = nx + (x0 * x0 + x1 * x1 + x2 * x2);
+            ny = ny + (y0 * y0 + y1 * y1 + y2 * y2);
         }
+    const pkss_vf h[9] = {h0, h1, h2, h3, h4, h5, h6, h7, h8};
+    sx[0] = s0;
+    sx[1] = s1;
+    sx[2] = s2;
+    sy[0] = t0;
+    sy[1] = t1;
+    sy[2] = t2;
     pkss_vf inv_k = 1.0f / PKSS_TO_VF(PKSS_SEL(k > 0, k, PKSS_VI(1)));
     for (int d = 0; d < 3; ++d) {
         mx[d] = sx[d] * inv_k;
@@ -562,7 +582,7 @@ PKSS_INLINE pkss_vi pkss_pair_moments(PKSS_CONST float *src, int shift,
     }
     for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j)
-            H[3 * i + j] = H[3 * i + j] - sx[i] * my[j];
+            H[3 * i + j] = h[3 * i + j] - sx[i] * my[j];
     nx = nx - (sx[0] * mx[0] + sx[1] * mx[1] + sx[2] * mx[2]);
     ny = ny - (sy[0] * my[0] + sy[1] * my[1] + sy[2] * my[2]);
     *nx_out = PKSS_SEL(nx > 0.0f, nx, zero);
