@@ -194,8 +194,9 @@ def test_truth_probe_holds_an_exact_pair():
     # at an exact similarity copy both textbook ICPs stay at the truth
     import truth_probe as P
     case = C.make_synthetic("chef", "similarity", 0, 0)
-    for mode, gate, rre, rte, scale_err, ok in P.probe(case.source, case.target, case.T_gt, [1.5]):
-        assert ok and rre < 0.05 and rte < 0.05 and scale_err < 0.05, mode
+    for mode, gate, rre, rte, scale_err, ok in P.probe(case.source, case.target, case.T_gt, [1.5],
+                                                       P.MODES):
+        assert ok and rre < 0.05 and rte < 0.05 and abs(scale_err) < 0.05, mode
 
 
 @needs_data
@@ -210,4 +211,43 @@ def test_truth_probe_similarity_icp_mends_a_scale_offset():
     T = P.settle(T0, case.source, case.target, tree, C.knn_stats(case.target)[0], 3 * h,
                  "similarity")
     assert P.errors(T0, case.T_gt, case.source, C.diameter(case.target))[2] > 1.4
-    assert P.errors(T, case.T_gt, case.source, C.diameter(case.target))[2] < 0.05
+    assert abs(P.errors(T, case.T_gt, case.source, C.diameter(case.target))[2]) < 0.05
+
+
+@needs_data
+def test_truth_probe_plane_similarity_mends_scale_and_turn():
+    # started 1.5 % large and 2 degrees off, the point-to-plane similarity
+    # ICPs (one way and both ways) return to the truth
+    import truth_probe as P
+    case = C.make_synthetic("chef", "similarity", 0, 0)
+    tree = cKDTree(case.target)
+    T0 = case.T_gt.copy()
+    T0[:3, :3] = 1.015 * P.rotation_exp(np.radians([2.0, 0.0, 0.0])) @ T0[:3, :3]
+    h = C.spacing(case.target, tree)
+    diam = C.diameter(case.target)
+    rre0, _, se0 = P.errors(T0, case.T_gt, case.source, diam)
+    assert rre0 > 1.9 and se0 > 1.4
+    for mode in ("plane-similarity", "plane-both"):
+        T = P.settle(T0, case.source, case.target, tree, C.knn_stats(case.target)[0], 3 * h,
+                     mode, C.knn_stats(case.source)[0])
+        rre, rte, se = P.errors(T, case.T_gt, case.source, diam)
+        assert rre < 0.05 and rte < 0.05 and abs(se) < 0.05, (mode, rre, rte, se)
+
+
+@needs_data
+def test_truth_probe_pairs_back_on_turned_source_normals():
+    # at the truth of an exact copy, each template point's pair back on the
+    # source carries the source's normal turned into the template frame:
+    # the template's own normal there, up to sign
+    import truth_probe as P
+    case = C.make_synthetic("chef", "similarity", 0, 0)
+    tree = cKDTree(case.target)
+    n_t, n_s = C.knn_stats(case.target)[0], C.knn_stats(case.source)[0]
+    h = C.spacing(case.target, tree)
+    x, y, n = P.plane_rows(case.T_gt, case.source, case.target, tree, n_t, n_s, 1.5 * h, True)
+    n_fwd = len(P.plane_rows(case.T_gt, case.source, case.target, tree, n_t, n_s, 1.5 * h,
+                             False)[0])
+    assert len(x) > n_fwd
+    back = slice(n_fwd, None)
+    j = tree.query(y[back])[1]
+    assert np.median(np.abs((n[back] * n_t[j]).sum(axis=1))) > 0.99
