@@ -55,6 +55,14 @@ def umeyama(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return T
 
 
+def rotation_exp(w: np.ndarray) -> np.ndarray:
+    """Rodrigues' formula: the rotation by |w| about w."""
+    th = np.linalg.norm(w)
+    K = np.array([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])
+    return np.eye(3) if th == 0 else (np.eye(3) + np.sin(th) / th * K
+                                      + (1 - np.cos(th)) / th ** 2 * K @ K)
+
+
 def plane_step(x: np.ndarray, y: np.ndarray, n: np.ndarray) -> np.ndarray:
     """The small rigid motion minimising sum (n . (x + w x x + v - y))^2."""
     A = np.hstack([np.cross(x, n), n])
@@ -78,14 +86,6 @@ def similarity_plane_step(x: np.ndarray, y: np.ndarray, n: np.ndarray) -> np.nda
     step[:3, :3] = (1.0 + p[0]) * R
     step[:3, 3] = c + p[4:] - (1.0 + p[0]) * R @ c
     return step
-
-
-def rotation_exp(w: np.ndarray) -> np.ndarray:
-    """Rodrigues' formula: the rotation by |w| about w."""
-    th = np.linalg.norm(w)
-    K = np.array([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])
-    return np.eye(3) if th == 0 else (np.eye(3) + np.sin(th) / th * K
-                                      + (1 - np.cos(th)) / th ** 2 * K @ K)
 
 
 def plane_rows(T, src, tgt, tree, tgt_normals, src_normals, gate, both):
