@@ -568,7 +568,18 @@ PKSS_INLINE pkss_vi pkss_pair_moments(PKSS_CONST float *src, int shift,
             nx = nx + (x0 * x0 + x1 * x1 + x2 * x2);
             ny = ny + (y0 * y0 + y1 * y1 + y2 * y2);
         }
-    const pkss_vf h[9] = {h0, h1, h2, h3, h4, h5, h6, h7, h8};
+    /* no array initialised from h0..h8 here: a program built so crashed
+     * LeakSanitizer's scan of the test process when PoCL loaded it from
+     * its binary (docs/tuning.md, "OpenCL lanes and groups") */
+    H[0] = h0;
+    H[1] = h1;
+    H[2] = h2;
+    H[3] = h3;
+    H[4] = h4;
+    H[5] = h5;
+    H[6] = h6;
+    H[7] = h7;
+    H[8] = h8;
     sx[0] = s0;
     sx[1] = s1;
     sx[2] = s2;
@@ -582,7 +593,7 @@ PKSS_INLINE pkss_vi pkss_pair_moments(PKSS_CONST float *src, int shift,
     }
     for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j)
-            H[3 * i + j] = h[3 * i + j] - sx[i] * my[j];
+            H[3 * i + j] = H[3 * i + j] - sx[i] * my[j];
     nx = nx - (sx[0] * mx[0] + sx[1] * mx[1] + sx[2] * mx[2]);
     ny = ny - (sy[0] * my[0] + sy[1] * my[1] + sy[2] * my[2]);
     *nx_out = PKSS_SEL(nx > 0.0f, nx, zero);
