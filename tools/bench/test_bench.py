@@ -191,7 +191,7 @@ def test_a_library_asked_for_but_not_loaded_is_refused(tmp_path):
 
 @needs_data
 def test_truth_probe_holds_an_exact_pair():
-    # at an exact similarity copy both textbook ICPs stay at the truth
+    # at an exact similarity copy every textbook ICP stays at the truth
     import truth_probe as P
     case = C.make_synthetic("chef", "similarity", 0, 0)
     for mode, gate, rre, rte, scale_err, ok in P.probe(case.source, case.target, case.T_gt, [1.5],
