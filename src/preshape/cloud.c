@@ -707,6 +707,13 @@ static const struct {
     {5, coarse_and_frame},
 };
 
+/* A stage's failure to allocate (status st) for n points, described. */
+static pkss_status prep_oom(prep *w, pkss_status st, size_t n)
+{
+    return pkss__fail(w->ctx, st, "out of memory pre-processing the %s cloud (%zu points)",
+                      w->which, n);
+}
+
 static pkss_status run_stages(prep *w)
 {
     int step = -1;
@@ -718,9 +725,7 @@ static pkss_status run_stages(prep *w)
         }
         pkss_status st = PREP_STAGES[k].run(w);
         if (st == PKSS_ERR_OUT_OF_MEMORY)
-            return pkss__fail(w->ctx, PKSS_ERR_OUT_OF_MEMORY,
-                              "out of memory pre-processing the %s cloud (%zu points)",
-                              w->which, w->np);
+            return prep_oom(w, st, w->np);
         if (st != PKSS_OK)
             return st;
     }
@@ -771,9 +776,7 @@ pkss_status pkss__prep_planes(prep *w, pkss__helper *helper)
     pkss_cloud *c = w->c;
     c->normal_dense = pkss__malloc(3 * c->m_dense * sizeof(double));
     if (!c->normal_dense)
-        return pkss__fail(w->ctx, PKSS_ERR_OUT_OF_MEMORY,
-                          "out of memory pre-processing the %s cloud (%zu points)",
-                          w->which, c->m_dense);
+        return prep_oom(w, PKSS_ERR_OUT_OF_MEMORY, c->m_dense);
     planes_job job = {.w = w};
     atomic_init(&job.next, 0);
     planes_part parts[2] = {{&job, 0, PKSS_OK}, {&job, 1, PKSS_OK}};
@@ -782,9 +785,7 @@ pkss_status pkss__prep_planes(prep *w, pkss__helper *helper)
         if (parts[i].st == PKSS_ERR_CANCELLED)
             return pkss__cancel_fail(w->ctx);
         if (parts[i].st != PKSS_OK)
-            return pkss__fail(w->ctx, parts[i].st,
-                              "out of memory pre-processing the %s cloud (%zu points)",
-                              w->which, c->m_dense);
+            return prep_oom(w, parts[i].st, c->m_dense); /* the tree's */
     }
     return PKSS_OK;
 }

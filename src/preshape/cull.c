@@ -151,21 +151,6 @@ static pkss_status compute_graph(const double *xyz, size_t n, size_t k, uint32_t
     return st;
 }
 
-/* The kNN graph of xyz: taken from *cache when it was built for the same
- * n and k, else computed. On success idx and d2 point to it; the caller
- * releases it with release_graph(). */
-static pkss_status get_graph(const double *xyz, size_t n, size_t k,
-                             pkss__knn_graph *cache, uint32_t **idx,
-                             double **d2)
-{
-    if (cache && cache->idx && cache->n == n && cache->k == k) {
-        *idx = cache->idx;
-        *d2 = cache->d2;
-        return PKSS_OK;
-    }
-    return compute_graph(xyz, n, k, idx, d2);
-}
-
 pkss_status pkss__knn_graph_of(const double *xyz, size_t n, size_t k, pkss__knn_graph *g)
 {
     if (g->idx && g->n == n && g->k == k)
@@ -177,21 +162,25 @@ pkss_status pkss__knn_graph_of(const double *xyz, size_t n, size_t k, pkss__knn_
     return PKSS_OK;
 }
 
-/* Hands a freshly computed graph to the cache (if any), or frees it. */
-static void release_graph(const double *xyz, size_t n, size_t k,
-                          pkss__knn_graph *cache, uint32_t *idx, double *d2)
+/* The kNN graph of xyz in idx and d2: the cache's (pkss__knn_graph_of), or
+ * computed for the caller alone without one; released by release_graph(). */
+static pkss_status get_graph(const double *xyz, size_t n, size_t k,
+                             pkss__knn_graph *cache, uint32_t **idx,
+                             double **d2)
 {
-    (void)xyz;
-    if (cache && cache->idx == idx)
-        return; /* it is the cache's */
-    if (cache) {
-        pkss__knn_graph_free(cache);
-        cache->idx = idx;
-        cache->d2 = d2;
-        cache->n = n;
-        cache->k = k;
+    if (!cache)
+        return compute_graph(xyz, n, k, idx, d2);
+    PKSS_FORWARD(pkss__knn_graph_of(xyz, n, k, cache));
+    *idx = cache->idx;
+    *d2 = cache->d2;
+    return PKSS_OK;
+}
+
+/* Frees a graph get_graph() computed without a cache (a cache keeps its own). */
+static void release_graph(pkss__knn_graph *cache, uint32_t *idx, double *d2)
+{
+    if (cache)
         return;
-    }
     pkss__free(idx);
     pkss__free(d2);
 }
@@ -229,7 +218,7 @@ pkss_status pkss__cull_mutual(const double *xyz, size_t n, size_t k,
         }
         keep[i] = (unsigned char)mutual;
     }
-    release_graph(xyz, n, k, graph, idx, d2);
+    release_graph(graph, idx, d2);
     return PKSS_OK;
 }
 
@@ -446,7 +435,7 @@ pkss_status pkss__cull_stat(const double *xyz, size_t n, unsigned char *keep,
             keep[i] = 0;
     }
 
-    release_graph(xyz, n, k, graph, idx, d2);
+    release_graph(graph, idx, d2);
     pkss__free(dm);
     return st;
 }
