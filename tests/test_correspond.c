@@ -260,11 +260,11 @@ static double *flat_grid(double x0, double y0, int nx, int ny, double g,
     return x;
 }
 
-/* Pairs beneath (pkss__pairs_beneath): two flat sheets overlapping on half
- * their width, the source under a similarity. A point beyond the other
- * sheet's rim pairs with the rim, beside it: such pairs go, in both
- * directions; the overlap's pairs stay. tol is in each side's units. A view
- * without normals keeps every pair. */
+/* Pairs beneath (pkss__correspond_beneath, pkss__beneath_pairs): two flat
+ * sheets overlapping on half their width, the source under a similarity. A
+ * point beyond the other sheet's rim pairs with the rim, beside it: such
+ * pairs go, in both directions; the overlap's pairs stay. tol is in each
+ * side's units. A view without normals keeps every pair. */
 static void test_pairs_beneath_drop_rim_pairs(void **state)
 {
     (void)state;
@@ -281,10 +281,10 @@ static void test_pairs_beneath_drop_rim_pairs(void **state)
     src.view.spacing = g / T.s;
     pkss__icp_work w;
     assert_true(pkss__work_alloc(&w, src.view.m, tgt.view.m, 0));
-    pkss__correspond(&src.view, &tgt.view, &T, 6.0 * g, &w);
+    pkss__correspond_beneath(&src.view, &tgt.view, &T, 6.0 * g, tol, &w);
     double d2max = 0.0;
-    size_t nf = pkss__forward_pairs(&w, src.view.m, 0, &d2max);
-    size_t kept = pkss__pairs_beneath(&src.view, &tgt.view, &T, tol, 0, &w, 0, nf);
+    size_t kept;
+    const size_t n = pkss__beneath_pairs(&w, src.view.m, tgt.view.m, &kept, &d2max);
     int beyond = 0, k = 0;
     for (size_t i = 0; i < src.view.m; ++i) {
         double x = -1.95 + g * (double)(i % 40);
@@ -297,12 +297,10 @@ static void test_pairs_beneath_drop_rim_pairs(void **state)
             assert_false(is_kept);
     }
     assert_true(beyond > 0); /* the gate let rim pairs in */
-    size_t nb = pkss__backward_pairs(&w, tgt.view.m, 0, T.s, &d2max);
-    kept = pkss__pairs_beneath(&src.view, &tgt.view, &T, tol / T.s, 1, &w, 0, nb);
-    k = 0;
+    k = (int)kept;
     for (size_t j = 0; j < tgt.view.m; ++j) {
         double x = g * (double)(j % 41);
-        int is_kept = k < (int)kept && w.pj[k] == j;
+        int is_kept = k < (int)n && w.pj[k] == j;
         k += is_kept;
         if (x <= 1.95)
             assert_true(is_kept);
@@ -310,13 +308,129 @@ static void test_pairs_beneath_drop_rim_pairs(void **state)
             assert_false(is_kept);
     }
     tgt.view.normal = NULL;
-    nf = pkss__forward_pairs(&w, src.view.m, 0, &d2max);
-    assert_int_equal(pkss__pairs_beneath(&src.view, &tgt.view, &T, tol, 0, &w, 0, nf), nf);
+    pkss__correspond_beneath(&src.view, &tgt.view, &T, 6.0 * g, tol, &w);
+    pkss__beneath_pairs(&w, src.view.m, tgt.view.m, &kept, &d2max);
+    assert_int_equal(kept, pkss__forward_pairs(&w, src.view.m, 0, &d2max));
     pkss__work_free(&w);
     side_free(&src);
     side_free(&tgt);
     free(tgt_normal);
     free(src_normal);
+}
+
+/* Unit normals of make_sheet's wavy sheet (ties = 0) at its points. */
+static double *sheet_normals(const double *x, size_t n)
+{
+    double *nrm = malloc(3 * n * sizeof(double));
+    assert_non_null(nrm);
+    for (size_t i = 0; i < n; ++i) {
+        double u = x[3 * i], v = x[3 * i + 1];
+        double g[3] = {-0.6 * cos(2.0 * u) * cos(1.5 * v), 0.45 * sin(2.0 * u) * sin(1.5 * v),
+                       1.0};
+        double len = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+        for (int d = 0; d < 3; ++d)
+            nrm[3 * i + d] = g[d] / len;
+    }
+    return nrm;
+}
+
+/* Whether point p's partner q (normal nq) lies beneath p within sqrt(tol2),
+ * derived here from the pair: within tol2, or offset along the surface
+ * within it. */
+static int lies_beneath(const double *p, const double *q, const double *nq, double d2,
+                        double tol2)
+{
+    double d[3] = {p[0] - q[0], p[1] - q[1], p[2] - q[2]};
+    double across = d[0] * nq[0] + d[1] * nq[1] + d[2] * nq[2];
+    return d2 <= tol2 || (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) - across * across <= tol2;
+}
+
+/* The pairs beneath and the coverages that a pass gathers chunk by chunk
+ * on both threads equal those derived from its answers afterwards, bit for
+ * bit: forward then backward pairs in index order, the farthest answer, the
+ * overlap at the coverage distance (or -1 with a narrower gate). */
+static void test_pass_lists_equal_derived(void **state)
+{
+    (void)state;
+    pkss_test_rng r = {g_seed + 13};
+    pkss_context *ctx;
+    assert_int_equal(pkss_context_create(&ctx), PKSS_OK);
+    pkss__run run;
+    pkss__run_begin(ctx, &run);
+    const size_t ns = 1500, nt = 1800;
+    side src, tgt;
+    side_make(&src, make_sheet(&r, ns, 0), ns);
+    side_make(&tgt, make_sheet(&r, nt, 0), nt);
+    double *src_normal = sheet_normals(src.pts, ns), *tgt_normal = sheet_normals(tgt.pts, nt);
+    src.view.normal = src_normal;
+    tgt.view.normal = tgt_normal;
+    src.view.run = tgt.view.run = &run;
+    const double h = tgt.view.spacing;
+    pkss__icp_work w;
+    assert_true(pkss__work_alloc(&w, ns, nt, 1));
+    pkss__pose T = identity_pose();
+    double gate = 12.0 * h;
+    size_t dropped = 0, narrow = 0;
+    for (int step = 0; step < 60; ++step) {
+        nudge(&r, 0.03, 0.3 * h, 0.01, &T);
+        gate = step == 30 ? 12.0 * h : fmax(0.85 * gate, 1.5 * h);
+        const double tol = 0.5 * gate, tol_s = tol / T.s;
+        pkss__correspond_beneath(&src.view, &tgt.view, &T, gate, tol, &w);
+        double d2max = 0.0, want_d2max = 0.0;
+        size_t n_forward, k = 0;
+        const size_t n = pkss__beneath_pairs(&w, ns, nt, &n_forward, &d2max);
+        for (size_t i = 0; i < ns; ++i) {
+            uint32_t u = w.fwd[i];
+            if (u == UINT32_MAX)
+                continue;
+            want_d2max = fmax(want_d2max, w.fwd_d2[i]);
+            double y[3];
+            pkss__pose_apply(&T, src.pts + 3 * i, y);
+            if (!lies_beneath(y, tgt.pts + 3 * (size_t)u, tgt_normal + 3 * (size_t)u,
+                              w.fwd_d2[i], tol * tol)) {
+                ++dropped;
+                continue;
+            }
+            if (k >= n_forward || w.pi[k] != i || w.pj[k] != u)
+                fail_msg("step %d: forward pair %zu is not (%zu, %u)", step, k, i, u);
+            ++k;
+        }
+        assert_int_equal(k, n_forward);
+        for (size_t j = 0; j < nt; ++j) {
+            uint32_t u = w.bwd[j];
+            if (u == UINT32_MAX)
+                continue;
+            want_d2max = fmax(want_d2max, T.s * T.s * w.bwd_d2[j]);
+            double x[3];
+            pkss__pose_inverse_apply(&T, tgt.pts + 3 * j, x);
+            if (!lies_beneath(x, src.pts + 3 * (size_t)u, src_normal + 3 * (size_t)u,
+                              w.bwd_d2[j], tol_s * tol_s)) {
+                ++dropped;
+                continue;
+            }
+            if (k >= n || w.pi[k] != u || w.pj[k] != j)
+                fail_msg("step %d: backward pair %zu is not (%u, %zu)", step, k, u, j);
+            ++k;
+        }
+        assert_int_equal(k, n);
+        if (d2max != want_d2max)
+            fail_msg("step %d: farthest answer %a, derived %a", step, d2max, want_d2max);
+        double cg = pkss__coverage_gate(&src.view, &tgt.view, &T), f[2];
+        pkss__coverage_from_pairs(&src.view, &tgt.view, &T, cg, &w, f);
+        double ov = pkss__overlap_from_pairs(&src.view, &tgt.view, gate, &w);
+        double want = gate >= cg ? sqrt(f[0] * f[1]) : -1.0;
+        narrow += gate < cg;
+        if (ov != want)
+            fail_msg("step %d: overlap %.17g, derived %.17g", step, ov, want);
+    }
+    assert_true(dropped > 0 && narrow > 0); /* pairs went, gates fell below cg */
+    pkss__work_free(&w);
+    side_free(&src);
+    side_free(&tgt);
+    free(src_normal);
+    free(tgt_normal);
+    pkss__run_end(ctx);
+    pkss_context_destroy(ctx);
 }
 
 /* Lookups shared with the call's helper thread in chunks answer as one
@@ -410,6 +524,7 @@ int main(void)
         cmocka_unit_test(test_tiny_clouds),
         cmocka_unit_test(test_work_counts),
         cmocka_unit_test(test_pairs_beneath_drop_rim_pairs),
+        cmocka_unit_test(test_pass_lists_equal_derived),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

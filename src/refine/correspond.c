@@ -115,24 +115,90 @@ typedef struct lookup_job {
     const pkss__icp_view *src, *tgt;
     const pkss__pose *T;
     double g2, g2s;
+    double tol2, tol2s; /* squared beneath tolerances (< 0: no pairs) */
+    double cg2, cg2s;   /* squared coverage distance, template and source units */
     pkss__icp_work *w;
     size_t total; /* src->m: forward only; src->m + tgt->m: both ways */
-    atomic_size_t next;
+    atomic_size_t covered[2]; /* answers within the coverage distance */
+    /* claimed by both threads: a cache line of its own, away from the
+     * fields every lookup reads */
+    _Alignas(64) atomic_size_t next;
+    char pad[64 - sizeof(atomic_size_t)];
 } lookup_job;
 
-static void lookup_range(const lookup_job *j, size_t a, size_t b)
+/* The squared offset of p from q along the surface whose normal at q is nq. */
+static double offset_along_surface2(const double *p, const double *q, const double *nq)
+{
+    const double d[3] = {p[0] - q[0], p[1] - q[1], p[2] - q[2]};
+    const double across = pkss__dot3(d, nq);
+    return pkss__dot3(d, d) - across * across;
+}
+
+/* Whether the partner u of view `under` found for point p at squared
+ * distance d2 lies beneath p: p's offset along the partner's surface within
+ * sqrt(tol2). No offset exceeds the pair's distance; a view without normals
+ * keeps every pair. */
+static int beneath(const double *p, uint32_t u, double d2, double tol2,
+                   const pkss__icp_view *under)
+{
+    if (!under->normal || d2 <= tol2)
+        return 1;
+    return offset_along_surface2(p, under->pts + 3 * (size_t)u,
+                                 under->normal + 3 * (size_t)u) <= tol2;
+}
+
+/* Whether an answer (nearest nn at squared distance d2) lies within the
+ * squared distance c2: the coverage counts' test. */
+static int covered(uint32_t nn, double d2, double c2)
+{
+    return nn != UINT32_MAX && d2 <= c2;
+}
+
+/* Lookups [a, b) of a pass (forward below src->m, backward above), and
+ * their answers within the coverage distance counted. With beneath
+ * tolerances, the chunk's pairs beneath their points are compacted in its
+ * own stretch of pi / pj, in the lists' order, for pkss__beneath_pairs to
+ * join: the caller would otherwise build them while the helper waits. */
+static void lookup_range(const lookup_job *j, size_t a, size_t b, size_t hits[2])
 {
     pkss__icp_work *w = j->w;
-    const size_t nf = j->src->m;
+    const size_t nf = j->src->m, b0 = a > nf ? a : nf;
+    const double s2 = j->T->s * j->T->s;
+    size_t at = a, bt = b0;
+    double d2max = 0.0;
     for (size_t i = a; i < b && i < nf; ++i) {
         double y[3];
         pkss__pose_apply(j->T, j->src->pts + 3 * i, y);
-        w->fwd[i] = nearest_memo(j->tgt, y, j->g2, &w->fwd_memo, i, &w->fwd_d2[i]);
+        uint32_t u = nearest_memo(j->tgt, y, j->g2, &w->fwd_memo, i, &w->fwd_d2[i]);
+        w->fwd[i] = u;
+        hits[0] += (size_t)covered(u, w->fwd_d2[i], j->cg2);
+        if (j->tol2 >= 0.0 && u != UINT32_MAX) {
+            d2max = w->fwd_d2[i] > d2max ? w->fwd_d2[i] : d2max;
+            if (beneath(y, u, w->fwd_d2[i], j->tol2, j->tgt)) {
+                w->pi[at] = (uint32_t)i;
+                w->pj[at++] = u;
+            }
+        }
     }
-    for (size_t k = (a > nf ? a : nf) - nf; k + nf < b; ++k) {
+    for (size_t k = b0 - nf; k + nf < b; ++k) {
         double x[3];
         pkss__pose_inverse_apply(j->T, j->tgt->pts + 3 * k, x);
-        w->bwd[k] = nearest_memo(j->src, x, j->g2s, &w->bwd_memo, k, &w->bwd_d2[k]);
+        uint32_t u = nearest_memo(j->src, x, j->g2s, &w->bwd_memo, k, &w->bwd_d2[k]);
+        w->bwd[k] = u;
+        hits[1] += (size_t)covered(u, w->bwd_d2[k], j->cg2s);
+        if (j->tol2s >= 0.0 && u != UINT32_MAX) {
+            d2max = s2 * w->bwd_d2[k] > d2max ? s2 * w->bwd_d2[k] : d2max;
+            if (beneath(x, u, w->bwd_d2[k], j->tol2s, j->src)) {
+                w->pi[bt] = u;
+                w->pj[bt++] = (uint32_t)k;
+            }
+        }
+    }
+    if (j->tol2 >= 0.0) {
+        pkss__chunk_pairs *c = &w->chunks[a / PKSS_LOOKUP_CHUNK];
+        c->n[0] = at - a;
+        c->n[1] = bt - b0;
+        c->d2max = d2max;
     }
 }
 
@@ -140,13 +206,17 @@ static void lookups(void *arg)
 {
     lookup_job *j = arg;
     const size_t total = j->total;
+    size_t hits[2] = {0, 0};
     for (;;) {
         size_t a = atomic_fetch_add_explicit(&j->next, PKSS_LOOKUP_CHUNK,
                                              memory_order_relaxed);
         if (a >= total)
-            return;
-        lookup_range(j, a, a + PKSS_LOOKUP_CHUNK < total ? a + PKSS_LOOKUP_CHUNK : total);
+            break;
+        lookup_range(j, a, a + PKSS_LOOKUP_CHUNK < total ? a + PKSS_LOOKUP_CHUNK : total,
+                     hits);
     }
+    atomic_fetch_add_explicit(&j->covered[0], hits[0], memory_order_relaxed);
+    atomic_fetch_add_explicit(&j->covered[1], hits[1], memory_order_relaxed);
 }
 
 /* The call's helper thread for a two-way pass over src and tgt, or NULL
@@ -157,15 +227,27 @@ static pkss__helper *pass_helper(const pkss__icp_view *src, const pkss__icp_view
 }
 
 /* One pass's lookups, the first `total` of forward then backward (lookups),
- * by both threads, each claiming chunks until none is left. */
+ * by both threads, each claiming chunks until none is left; with tol >= 0
+ * each chunk's pairs beneath their points as well. */
 static void run_pass(const pkss__icp_view *src, const pkss__icp_view *tgt,
-                     const pkss__pose *T, double gate, pkss__icp_work *w, size_t total)
+                     const pkss__pose *T, double gate, double tol, pkss__icp_work *w,
+                     size_t total)
 {
-    double g2 = gate * gate;
+    double g2 = gate * gate, tol_s = tol / T->s;
+    double cg = pkss__coverage_gate(src, tgt, T), cg2 = cg * cg;
     lookup_job job = {.src = src, .tgt = tgt, .T = T, .g2 = g2, .g2s = g2 / (T->s * T->s),
-                      .w = w, .total = total};
+                      .tol2 = tol >= 0.0 ? tol * tol : -1.0,
+                      .tol2s = tol >= 0.0 ? tol_s * tol_s : -1.0, .cg2 = cg2,
+                      .cg2s = cg2 / (T->s * T->s), .w = w, .total = total};
     atomic_init(&job.next, 0);
+    atomic_init(&job.covered[0], 0);
+    atomic_init(&job.covered[1], 0);
     pkss__helper_both(pass_helper(src, tgt), lookups, &job, &job);
+    if (total > src->m) { /* both ways: the coverages at this pose */
+        w->cover_gate = cg;
+        w->covered[0] = atomic_load(&job.covered[0]);
+        w->covered[1] = atomic_load(&job.covered[1]);
+    }
 }
 
 /* Nearest template point of every source point (fwd) and nearest source
@@ -175,13 +257,20 @@ static void run_pass(const pkss__icp_view *src, const pkss__icp_view *tgt,
 void pkss__correspond(const pkss__icp_view *src, const pkss__icp_view *tgt,
                       const pkss__pose *T, double gate, pkss__icp_work *w)
 {
-    run_pass(src, tgt, T, gate, w, src->m + tgt->m);
+    run_pass(src, tgt, T, gate, -1.0, w, src->m + tgt->m);
+}
+
+void pkss__correspond_beneath(const pkss__icp_view *src, const pkss__icp_view *tgt,
+                              const pkss__pose *T, double gate, double tol,
+                              pkss__icp_work *w)
+{
+    run_pass(src, tgt, T, gate, tol, w, src->m + tgt->m);
 }
 
 void pkss__correspond_forward(const pkss__icp_view *src, const pkss__icp_view *tgt,
                               const pkss__pose *T, double gate, pkss__icp_work *w)
 {
-    run_pass(src, tgt, T, gate, w, src->m);
+    run_pass(src, tgt, T, gate, -1.0, w, src->m);
 }
 
 static void memo_free(pkss__nn_memo *m)
@@ -211,6 +300,7 @@ void pkss__work_free(pkss__icp_work *w)
     pkss__free(w->pj);
     pkss__free(w->fwd_d2);
     pkss__free(w->bwd_d2);
+    pkss__free(w->chunks);
     memo_free(&w->fwd_memo);
     memo_free(&w->bwd_memo);
 }
@@ -224,8 +314,10 @@ int pkss__work_alloc(pkss__icp_work *w, size_t ns, size_t nt, int remember)
     w->bwd_d2 = pkss__malloc(nt * sizeof(double));
     w->pi = pkss__malloc((ns + nt) * sizeof(uint32_t));
     w->pj = pkss__malloc((ns + nt) * sizeof(uint32_t));
+    w->chunks = pkss__malloc(((ns + nt) / PKSS_LOOKUP_CHUNK + 1) * sizeof *w->chunks);
     int memos = !remember || (memo_alloc(&w->fwd_memo, ns) & memo_alloc(&w->bwd_memo, nt));
-    if (!w->fwd || !w->fwd_d2 || !w->bwd || !w->bwd_d2 || !w->pi || !w->pj || !memos) {
+    if (!w->fwd || !w->fwd_d2 || !w->bwd || !w->bwd_d2 || !w->pi || !w->pj || !w->chunks ||
+        !memos) {
         pkss__work_free(w);
         return 0;
     }
@@ -280,42 +372,30 @@ size_t pkss__mutual_pairs(pkss__icp_work *w, size_t ns, double *d2max)
     return n;
 }
 
-/* The squared offset of p from q along the surface whose normal at q is nq. */
-static double offset_along_surface2(const double *p, const double *q, const double *nq)
+/* Moves the n pairs at pi / pj [from, from + n) to [*at, *at + n). */
+static void join(pkss__icp_work *w, size_t from, size_t n, size_t *at)
 {
-    const double d[3] = {p[0] - q[0], p[1] - q[1], p[2] - q[2]};
-    const double across = pkss__dot3(d, nq);
-    return pkss__dot3(d, d) - across * across;
+    memmove(w->pi + *at, w->pi + from, n * sizeof *w->pi);
+    memmove(w->pj + *at, w->pj + from, n * sizeof *w->pj);
+    *at += n;
 }
 
-size_t pkss__pairs_beneath(const pkss__icp_view *src, const pkss__icp_view *tgt,
-                           const pkss__pose *T, double tol, int backward,
-                           pkss__icp_work *w, size_t from, size_t n)
+size_t pkss__beneath_pairs(pkss__icp_work *w, size_t ns, size_t nt, size_t *n_forward,
+                           double *d2max)
 {
-    const pkss__icp_view *under = backward ? src : tgt;
-    if (!under->normal)
-        return n;
-    const double tol2 = tol * tol;
-    size_t kept = from;
-    for (size_t k = from; k < n; ++k) {
-        uint32_t i = w->pi[k], j = w->pj[k], u = backward ? i : j;
-        /* no offset along the surface exceeds the pair's distance */
-        int beneath = (backward ? w->bwd_d2[j] : w->fwd_d2[i]) <= tol2;
-        if (!beneath) {
-            double p[3];
-            if (backward)
-                pkss__pose_inverse_apply(T, tgt->pts + 3 * (size_t)j, p);
-            else
-                pkss__pose_apply(T, src->pts + 3 * (size_t)i, p);
-            beneath = offset_along_surface2(p, under->pts + 3 * (size_t)u,
-                                            under->normal + 3 * (size_t)u) <= tol2;
-        }
-        if (beneath) {
-            w->pi[kept] = i;
-            w->pj[kept++] = j;
-        }
+    const size_t chunks = (ns + nt + PKSS_LOOKUP_CHUNK - 1) / PKSS_LOOKUP_CHUNK;
+    size_t n = 0;
+    for (size_t c = 0; c * PKSS_LOOKUP_CHUNK < ns; ++c)
+        join(w, c * PKSS_LOOKUP_CHUNK, w->chunks[c].n[0], &n);
+    if (n_forward)
+        *n_forward = n;
+    for (size_t c = 0; c < chunks; ++c) {
+        size_t first = c * PKSS_LOOKUP_CHUNK;
+        if (first + PKSS_LOOKUP_CHUNK > ns)
+            join(w, first > ns ? first : ns, w->chunks[c].n[1], &n);
+        *d2max = w->chunks[c].d2max > *d2max ? w->chunks[c].d2max : *d2max;
     }
-    return kept;
+    return n;
 }
 
 /* Distance within which a point counts as covered by the other cloud: 2 x
@@ -339,9 +419,9 @@ void pkss__coverage_from_pairs(const pkss__icp_view *src,
     double cg2 = cg * cg, cg2s = cg2 / (T->s * T->s);
     size_t fwd_hits = 0, bwd_hits = 0;
     for (size_t i = 0; i < src->m; ++i)
-        fwd_hits += w->fwd[i] != UINT32_MAX && w->fwd_d2[i] <= cg2;
+        fwd_hits += (size_t)covered(w->fwd[i], w->fwd_d2[i], cg2);
     for (size_t j = 0; j < tgt->m; ++j)
-        bwd_hits += w->bwd[j] != UINT32_MAX && w->bwd_d2[j] <= cg2s;
+        bwd_hits += (size_t)covered(w->bwd[j], w->bwd_d2[j], cg2s);
     cover[0] = src->m ? (double)fwd_hits / (double)src->m : 0.0;
     cover[1] = tgt->m ? (double)bwd_hits / (double)tgt->m : 0.0;
 }
@@ -431,6 +511,14 @@ double pkss__icp_merit(const pkss__icp_result *r)
     return r->overlap > 0.0 ? r->fit * r->fit / r->overlap : 0.0;
 }
 
+/* The coverages the last two-way pass counted at its coverage distance. */
+static void counted_cover(const pkss__icp_view *src, const pkss__icp_view *tgt,
+                          const pkss__icp_work *w, double cover[2])
+{
+    cover[0] = src->m ? (double)w->covered[0] / (double)src->m : 0.0;
+    cover[1] = tgt->m ? (double)w->covered[1] / (double)tgt->m : 0.0;
+}
+
 /* Coverage overlap: f_s = share of source points with a template point
  * within d, f_t = share of template points with a source point within d,
  * overlap = sqrt(f_s f_t), d = 2 x the coarser of the two spacings (template
@@ -451,7 +539,7 @@ void pkss__overlap_with(const pkss__icp_view *src, const pkss__icp_view *tgt,
                                   fit_cover);
         *fit = sqrt(fit_cover[0] * fit_cover[1]);
     }
-    pkss__coverage_from_pairs(src, tgt, T, cg, w, f);
+    counted_cover(src, tgt, w, f);
     double d2max = 0.0, ss = 0.0;
     size_t mutual = pkss__mutual_pairs(w, src->m, &d2max);
     for (size_t k = 0; k < mutual; ++k)
@@ -468,13 +556,13 @@ void pkss__overlap_with(const pkss__icp_view *src, const pkss__icp_view *tgt,
  * its answers; -1 if the gate was narrower than the coverage distance (the
  * answers cannot tell). */
 double pkss__overlap_from_pairs(const pkss__icp_view *src,
-                                const pkss__icp_view *tgt, const pkss__pose *T,
-                                double gate, const pkss__icp_work *w)
+                                const pkss__icp_view *tgt, double gate,
+                                const pkss__icp_work *w)
 {
-    double cg = pkss__coverage_gate(src, tgt, T), f[2];
-    if (gate < cg)
+    if (gate < w->cover_gate)
         return -1.0;
-    pkss__coverage_from_pairs(src, tgt, T, cg, w, f);
+    double f[2];
+    counted_cover(src, tgt, w, f);
     return sqrt(f[0] * f[1]);
 }
 

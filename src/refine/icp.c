@@ -64,7 +64,7 @@ int pkss__plane_stage(const pkss__icp_view *src, const pkss__icp_view *tgt,
     while (runs && it < iters) {
         pkss__correspond(src, tgt, T, gate, w);
         if (it == 0 && from_pairs)
-            *overlap_start = pkss__overlap_from_pairs(src, tgt, T, gate, w);
+            *overlap_start = pkss__overlap_from_pairs(src, tgt, gate, w);
         double d2max = 0.0;
         size_t n = pkss__mutual_pairs(w, src->m, &d2max);
         double step = pkss__solve_plane(src, tgt, w->pi, w->pj, n, T);
@@ -100,14 +100,8 @@ enum { ITER_GO, ITER_STAGE_DONE, ITER_RUN_DONE };
 static size_t stage_pairs(icp_state *r, int stage, double *d2max)
 {
     pkss__icp_work *w = &r->w;
-    if (stage == RIGID) {
-        const double tol = ICP_BENEATH * r->gate; /* template units */
-        size_t n = pkss__forward_pairs(w, r->src->m, 0, d2max);
-        n = pkss__pairs_beneath(r->src, r->tgt, &r->T, tol, 0, w, 0, n);
-        const size_t n_forward = n;
-        n = pkss__backward_pairs(w, r->tgt->m, n, r->T.s, d2max);
-        return pkss__pairs_beneath(r->src, r->tgt, &r->T, tol / r->T.s, 1, w, n_forward, n);
-    }
+    if (stage == RIGID)
+        return pkss__beneath_pairs(w, r->src->m, r->tgt->m, NULL, d2max);
     switch (r->sched->free_scale) {
     case PKSS__SCALE_SOURCE_PART:
         return pkss__forward_pairs(w, r->src->m, 0, d2max);
@@ -147,9 +141,8 @@ static int abandon(icp_state *r)
  * by the linear projection of the window's gain, which over-estimates a
  * decelerating run. Not while the scale still moves: a part's scale stage
  * can stall in overlap, then climb (docs/tuning.md). */
-static int track_overlap(icp_state *r, int stage, const pkss__pose *prev,
-                         double gate_used, double change, int scale_moving,
-                         int *stagnant)
+static int track_overlap(icp_state *r, int stage, double gate_used, double change,
+                         int scale_moving, int *stagnant)
 {
     const pkss__icp_schedule *s = r->sched;
     double bar = stage == SCALE ? r->stops.scale_bar : r->stops.rigid_bar;
@@ -157,7 +150,7 @@ static int track_overlap(icp_state *r, int stage, const pkss__pose *prev,
     int track = bar > 0.0 || (s->free_scale && stage == RIGID);
     if (!track || !(stage == SCALE || gate_used <= r->floor_gate))
         return 0;
-    double ov = pkss__overlap_from_pairs(r->src, r->tgt, prev, gate_used, &r->w);
+    double ov = pkss__overlap_from_pairs(r->src, r->tgt, gate_used, &r->w);
     if (ov < 0.0) {
         r->n_ring = 0;
     } else {
@@ -180,7 +173,10 @@ static int track_overlap(icp_state *r, int stage, const pkss__pose *prev,
 static int iterate(icp_state *r, int stage)
 {
     const pkss__icp_schedule *s = r->sched;
-    pkss__correspond(r->src, r->tgt, &r->T, r->gate, &r->w);
+    if (stage == RIGID) /* the partners beneath their points (ICP_BENEATH) */
+        pkss__correspond_beneath(r->src, r->tgt, &r->T, r->gate, ICP_BENEATH * r->gate, &r->w);
+    else
+        pkss__correspond(r->src, r->tgt, &r->T, r->gate, &r->w);
     double d2max = 0.0;
     size_t n = stage_pairs(r, stage, &d2max);
     pkss__pose prev = r->T;
@@ -200,7 +196,7 @@ static int iterate(icp_state *r, int stage)
     if (r->gate < ICP_GATE_FLOOR * r->h)
         r->gate = ICP_GATE_FLOOR * r->h;
     int stagnant = 0;
-    if (track_overlap(r, stage, &prev, gate_used, change, scale_moving, &stagnant))
+    if (track_overlap(r, stage, gate_used, change, scale_moving, &stagnant))
         return ++r->it, ITER_RUN_DONE;
     if (r->stops.basins && at_floor) {
         r->out->duplicate_of = pkss__basins_find(r->stops.basins, &r->T, r->h, r->stops.id,

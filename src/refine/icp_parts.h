@@ -52,11 +52,24 @@ typedef struct pkss__nn_memo {
     uint32_t *near;
 } pkss__nn_memo;
 
+/* One lookup chunk's pairs beneath their points (forward, backward), left
+ * in its stretch of the pair lists, and the farthest answer's squared
+ * distance (template units). */
+typedef struct pkss__chunk_pairs {
+    size_t n[2];
+    double d2max;
+} pkss__chunk_pairs;
+
 /* Nearest partners both ways and the pair lists built from them. fwd/bwd
  * hold the answers within the last gate or UINT32_MAX. */
 typedef struct pkss__icp_work {
     uint32_t *fwd, *bwd, *pi, *pj;
     double *fwd_d2, *bwd_d2;
+    pkss__chunk_pairs *chunks; /* of correspond_beneath(), per lookup chunk */
+    /* the last two-way pass's coverage distance at its pose
+     * (pkss__coverage_gate) and the answers within it each way */
+    double cover_gate;
+    size_t covered[2];
     pkss__nn_memo fwd_memo, bwd_memo;
 } pkss__icp_work;
 
@@ -68,6 +81,13 @@ void pkss__work_free(pkss__icp_work *w);
  * every template point, both within gate (template units). */
 void pkss__correspond(const pkss__icp_view *src, const pkss__icp_view *tgt,
                       const pkss__pose *T, double gate, pkss__icp_work *w);
+/* correspond(), and the pairs whose partner lies beneath its point: the
+ * point's offset along the partner's surface (orthogonal to the partner's
+ * normal) within tol (template units; tol / s for the backward answers).
+ * Views without normals keep every pair. Read by pkss__beneath_pairs. */
+void pkss__correspond_beneath(const pkss__icp_view *src, const pkss__icp_view *tgt,
+                              const pkss__pose *T, double gate, double tol,
+                              pkss__icp_work *w);
 /* The forward half of correspond(): fwd only (bwd keeps its last answers). */
 void pkss__correspond_forward(const pkss__icp_view *src, const pkss__icp_view *tgt,
                               const pkss__pose *T, double gate, pkss__icp_work *w);
@@ -78,14 +98,12 @@ size_t pkss__forward_pairs(pkss__icp_work *w, size_t ns, size_t n, double *d2max
 size_t pkss__backward_pairs(pkss__icp_work *w, size_t nt, size_t n, double s,
                             double *d2max);
 size_t pkss__mutual_pairs(pkss__icp_work *w, size_t ns, double *d2max);
-/* Keeps, of the pairs [from, n), those whose partner lies beneath its
- * point: the point's offset along the partner's surface (orthogonal to the
- * partner's normal) within tol. backward: the pairs are template -> source,
- * tol in source units. Views without normals keep every pair. Returns the
- * count. */
-size_t pkss__pairs_beneath(const pkss__icp_view *src, const pkss__icp_view *tgt,
-                           const pkss__pose *T, double tol, int backward,
-                           pkss__icp_work *w, size_t from, size_t n);
+/* The pairs beneath of the last correspond_beneath() into w->pi / w->pj
+ * from 0, forward (their count in *n_forward, if not NULL) then backward,
+ * each in index order as forward_pairs and backward_pairs list them;
+ * returns the count and raises *d2max to the farthest of all answers. */
+size_t pkss__beneath_pairs(pkss__icp_work *w, size_t ns, size_t nt, size_t *n_forward,
+                           double *d2max);
 /* The coverage distance: ICP_OVERLAP_DIST x the coarser spacing. */
 double pkss__coverage_gate(const pkss__icp_view *src, const pkss__icp_view *tgt,
                            const pkss__pose *T);
@@ -113,8 +131,8 @@ void pkss__overlap_with(const pkss__icp_view *src, const pkss__icp_view *tgt,
 /* The overlap at the pose of the last correspond() (gate), or -1 when the
  * gate was narrower than the coverage distance. */
 double pkss__overlap_from_pairs(const pkss__icp_view *src,
-                                const pkss__icp_view *tgt, const pkss__pose *T,
-                                double gate, const pkss__icp_work *w);
+                                const pkss__icp_view *tgt, double gate,
+                                const pkss__icp_work *w);
 /* The point-to-plane polish (icp.c): returns the steps taken. */
 int pkss__plane_stage(const pkss__icp_view *src, const pkss__icp_view *tgt,
                       int iters, pkss__icp_work *w, pkss__pose *T,
