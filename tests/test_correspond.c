@@ -345,6 +345,52 @@ static int lies_beneath(const double *p, const double *q, const double *nq, doub
     return d2 <= tol2 || (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) - across * across <= tol2;
 }
 
+/* One direction of a pass: its queries `from` (carried by T, or by its
+ * inverse when backward), their partners in `to` with to_normal. */
+typedef struct one_way {
+    const pkss__icp_work *w;
+    int backward;
+    const side *from, *to;
+    const double *to_normal;
+    const pkss__pose *T;
+    double tol2;
+} one_way;
+
+/* Checks the direction's pairs beneath, listed from *k up to end, against
+ * those derived from its answers, raising *d2max to its farthest answer
+ * (template units); returns how many answers were dropped. */
+static size_t check_one_way(const one_way *o, int step, size_t *k, size_t end,
+                            double *d2max)
+{
+    const pkss__icp_work *w = o->w;
+    const uint32_t *nn = o->backward ? w->bwd : w->fwd;
+    const double *d2 = o->backward ? w->bwd_d2 : w->fwd_d2;
+    const double s2 = o->backward ? o->T->s * o->T->s : 1.0;
+    size_t dropped = 0;
+    for (size_t i = 0; i < o->from->view.m; ++i) {
+        uint32_t u = nn[i];
+        if (u == UINT32_MAX)
+            continue;
+        *d2max = fmax(*d2max, s2 * d2[i]);
+        double y[3];
+        if (o->backward)
+            pkss__pose_inverse_apply(o->T, o->from->pts + 3 * i, y);
+        else
+            pkss__pose_apply(o->T, o->from->pts + 3 * i, y);
+        if (!lies_beneath(y, o->to->pts + 3 * (size_t)u, o->to_normal + 3 * (size_t)u, d2[i],
+                          o->tol2)) {
+            ++dropped;
+            continue;
+        }
+        uint32_t pi = o->backward ? u : (uint32_t)i, pj = o->backward ? (uint32_t)i : u;
+        if (*k >= end || w->pi[*k] != pi || w->pj[*k] != pj)
+            fail_msg("step %d: pair %zu is not (%u, %u)", step, *k, pi, pj);
+        ++*k;
+    }
+    assert_int_equal(*k, end);
+    return dropped;
+}
+
 /* The pairs beneath and the coverages that a pass gathers chunk by chunk
  * on both threads equal those derived from its answers afterwards, bit for
  * bit: forward then backward pairs in index order, the farthest answer, the
@@ -379,40 +425,10 @@ static void test_pass_lists_equal_derived(void **state)
         double d2max = 0.0, want_d2max = 0.0;
         size_t n_forward, k = 0;
         const size_t n = pkss__beneath_pairs(&w, ns, nt, &n_forward, &d2max);
-        for (size_t i = 0; i < ns; ++i) {
-            uint32_t u = w.fwd[i];
-            if (u == UINT32_MAX)
-                continue;
-            want_d2max = fmax(want_d2max, w.fwd_d2[i]);
-            double y[3];
-            pkss__pose_apply(&T, src.pts + 3 * i, y);
-            if (!lies_beneath(y, tgt.pts + 3 * (size_t)u, tgt_normal + 3 * (size_t)u,
-                              w.fwd_d2[i], tol * tol)) {
-                ++dropped;
-                continue;
-            }
-            if (k >= n_forward || w.pi[k] != i || w.pj[k] != u)
-                fail_msg("step %d: forward pair %zu is not (%zu, %u)", step, k, i, u);
-            ++k;
-        }
-        assert_int_equal(k, n_forward);
-        for (size_t j = 0; j < nt; ++j) {
-            uint32_t u = w.bwd[j];
-            if (u == UINT32_MAX)
-                continue;
-            want_d2max = fmax(want_d2max, T.s * T.s * w.bwd_d2[j]);
-            double x[3];
-            pkss__pose_inverse_apply(&T, tgt.pts + 3 * j, x);
-            if (!lies_beneath(x, src.pts + 3 * (size_t)u, src_normal + 3 * (size_t)u,
-                              w.bwd_d2[j], tol_s * tol_s)) {
-                ++dropped;
-                continue;
-            }
-            if (k >= n || w.pi[k] != u || w.pj[k] != j)
-                fail_msg("step %d: backward pair %zu is not (%u, %zu)", step, k, u, j);
-            ++k;
-        }
-        assert_int_equal(k, n);
+        const one_way fwd = {&w, 0, &src, &tgt, tgt_normal, &T, tol * tol};
+        const one_way bwd = {&w, 1, &tgt, &src, src_normal, &T, tol_s * tol_s};
+        dropped += check_one_way(&fwd, step, &k, n_forward, &want_d2max);
+        dropped += check_one_way(&bwd, step, &k, n, &want_d2max);
         if (d2max != want_d2max)
             fail_msg("step %d: farthest answer %a, derived %a", step, d2max, want_d2max);
         double cg = pkss__coverage_gate(&src.view, &tgt.view, &T), f[2];
