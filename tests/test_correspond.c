@@ -318,6 +318,21 @@ static void test_pairs_beneath_drop_rim_pairs(void **state)
     free(src_normal);
 }
 
+/* A context's run begun, whose helper thread the views' lookups share. */
+static pkss_context *shared_run(pkss__run *run)
+{
+    pkss_context *ctx;
+    assert_int_equal(pkss_context_create(&ctx), PKSS_OK);
+    pkss__run_begin(ctx, run);
+    return ctx;
+}
+
+static void shared_run_end(pkss_context *ctx)
+{
+    pkss__run_end(ctx);
+    pkss_context_destroy(ctx);
+}
+
 /* Unit normals of make_sheet's wavy sheet (ties = 0) at its points. */
 static double *sheet_normals(const double *x, size_t n)
 {
@@ -399,10 +414,8 @@ static void test_pass_lists_equal_derived(void **state)
 {
     (void)state;
     pkss_test_rng r = {g_seed + 13};
-    pkss_context *ctx;
-    assert_int_equal(pkss_context_create(&ctx), PKSS_OK);
     pkss__run run;
-    pkss__run_begin(ctx, &run);
+    pkss_context *ctx = shared_run(&run);
     const size_t ns = 1500, nt = 1800;
     side src, tgt;
     side_make(&src, make_sheet(&r, ns, 0), ns);
@@ -445,8 +458,7 @@ static void test_pass_lists_equal_derived(void **state)
     side_free(&tgt);
     free(src_normal);
     free(tgt_normal);
-    pkss__run_end(ctx);
-    pkss_context_destroy(ctx);
+    shared_run_end(ctx);
 }
 
 /* Lookups shared with the call's helper thread in chunks answer as one
@@ -455,15 +467,12 @@ static void test_shared_answers_equal_one_thread(void **state)
 {
     (void)state;
     pkss_test_rng r = {g_seed + 4};
-    pkss_context *ctx;
-    assert_int_equal(pkss_context_create(&ctx), PKSS_OK);
     pkss__run run;
-    pkss__run_begin(ctx, &run);
+    pkss_context *ctx = shared_run(&run);
     walk(&r, 0, 1500, 1800, &run);
     walk(&r, 1, 1200, 1200, &run);
     walk(&r, 0, 3000, 300, &run);
-    pkss__run_end(ctx);
-    pkss_context_destroy(ctx);
+    shared_run_end(ctx);
 }
 
 static void test_remembered_answers_keep_ties(void **state)

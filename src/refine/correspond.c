@@ -120,10 +120,9 @@ typedef struct lookup_job {
     pkss__icp_work *w;
     size_t total; /* src->m: forward only; src->m + tgt->m: both ways */
     atomic_size_t covered[2]; /* answers within the coverage distance */
-    /* claimed by both threads: a cache line of its own, away from the
-     * fields every lookup reads */
+    /* claimed by both threads: a cache line of its own (the alignment pads
+     * the job to whole lines), away from the fields every lookup reads */
     _Alignas(64) atomic_size_t next;
-    char pad[64 - sizeof(atomic_size_t)];
 } lookup_job;
 
 /* The squared offset of p from q along the surface whose normal at q is nq. */
