@@ -217,7 +217,7 @@ def test_truth_probe_similarity_icp_mends_a_scale_offset():
 @needs_data
 def test_truth_probe_plane_similarity_mends_scale_and_turn():
     # started 1.5 % large and 2 degrees off, the point-to-plane similarity
-    # ICPs (one way and both ways) return to the truth
+    # ICPs (one way, both ways, weighted) return to the truth
     import truth_probe as P
     case = C.make_synthetic("chef", "similarity", 0, 0)
     tree = cKDTree(case.target)
@@ -227,11 +227,30 @@ def test_truth_probe_plane_similarity_mends_scale_and_turn():
     diam = C.diameter(case.target)
     rre0, _, se0 = P.errors(T0, case.T_gt, case.source, diam)
     assert rre0 > 1.9 and se0 > 1.4
-    for mode in ("plane-similarity", "plane-both"):
+    for mode in ("plane-similarity", "plane-both", "plane-robust"):
         T = P.settle(T0, case.source, case.target, tree, C.knn_stats(case.target)[0], 3 * h,
                      mode, C.knn_stats(case.source)[0])
         rre, rte, se = P.errors(T, case.T_gt, case.source, diam)
         assert rre < 0.05 and rte < 0.05 and abs(se) < 0.05, (mode, rre, rte, se)
+
+
+def test_truth_probe_welsch_weights_fade_pairs_off_the_surface():
+    # rows on a unit sphere with small noise and a fifth of them 0.3 off it:
+    # the far rows weigh nearly nothing, and the weighted step then leaves
+    # the sphere's rows on it while the plain step scales them off
+    import truth_probe as P
+    rng = np.random.default_rng(3)
+    y = rng.normal(size=(500, 3))
+    y /= np.linalg.norm(y, axis=1)[:, None]
+    x = y * (1.0 + rng.normal(0.0, 0.005, 500))[:, None]
+    x[400:] = 1.3 * y[400:]
+    w = P.welsch_weights(x, y, y, gate=1.0)
+    assert w[400:].max() < 1e-6 and np.median(w[:400]) > 0.7
+
+    def off_surface(step):
+        return np.abs(np.linalg.norm(C.apply(step, x[:400]), axis=1) - 1.0).mean()
+    assert off_surface(P.similarity_plane_step(x, y, y)) > 0.03
+    assert off_surface(P.similarity_plane_step(x, y, y, w)) < 0.01
 
 
 @needs_data
